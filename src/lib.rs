@@ -10,6 +10,7 @@ pub mod error;
 pub mod geometry;
 pub mod mesh;
 pub mod mesh_checks;
+pub mod phantom;
 pub mod volume;
 
 pub use error::{Error, ErrorKind, Result};

@@ -1,6 +1,73 @@
-//! The `balloonseg` command line (SPEC §3).
+//! The `balloonseg` command line (SPEC §3): thin wrappers that read files, call the library and
+//! write files. Every error ends the process with a one-line reason and a non-zero exit code.
 
-fn main() {
-    eprintln!("balloonseg: no commands yet");
-    std::process::exit(2);
+mod check;
+mod distance;
+mod isosurface;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(
+    name = "balloonseg",
+    version,
+    about = "Balloon segmentation of CT/MR volumes and its geometry kernels"
+)]
+struct Cli {
+    /// Worker threads (0 = all cores). Results are identical for any count.
+    #[arg(long, global = true, default_value_t = 0)]
+    threads: usize,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Marching cubes of a volume at a level, written as a welded mesh in world mm.
+    Isosurface(isosurface::Args),
+    /// Topology and geometry of a mesh as JSON: closed, manifold, oriented, genus, ...
+    Check(check::Args),
+    /// Signed distance (mm, negative inside) from a closed mesh on the grid of a volume.
+    Distance(distance::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let pool = match rayon::ThreadPoolBuilder::new()
+        .num_threads(cli.threads)
+        .build()
+    {
+        Ok(pool) => pool,
+        Err(e) => return fail(&format!("cannot start {} threads: {e}", cli.threads)),
+    };
+    let result = pool.install(|| match cli.command {
+        Command::Isosurface(args) => isosurface::run(&args),
+        Command::Check(args) => check::run(&args),
+        Command::Distance(args) => distance::run(&args),
+    });
+    match result {
+        Ok(code) => code,
+        Err(e) => fail(&e.to_string()),
+    }
+}
+
+fn fail(reason: &str) -> ExitCode {
+    eprintln!("balloonseg: error: {reason}");
+    ExitCode::FAILURE
+}
+
+/// The file name for messages: what the user typed.
+fn shown(path: &std::path::Path) -> String {
+    path.display().to_string()
+}
+
+/// An output path argument, shared by the commands that write one file.
+#[derive(clap::Args)]
+struct Output {
+    /// Output file; the format follows the extension.
+    #[arg(short = 'o', long = "output")]
+    path: PathBuf,
 }
