@@ -2,8 +2,10 @@
 //! write files. Every error ends the process with a one-line reason and a non-zero exit code.
 
 mod check;
+mod demo;
 mod distance;
 mod isosurface;
+mod phantom;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -32,6 +34,10 @@ enum Command {
     Check(check::Args),
     /// Signed distance (mm, negative inside) from a closed mesh on the grid of a volume.
     Distance(distance::Args),
+    /// Write a synthetic test volume (sphere, torus, double-torus, y-vessel, touching-tubes).
+    Phantom(phantom::Args),
+    /// Run on the built-in phantoms, no input needed; writes meshes and a report.
+    Demo(demo::Args),
 }
 
 fn main() -> ExitCode {
@@ -47,6 +53,8 @@ fn main() -> ExitCode {
         Command::Isosurface(args) => isosurface::run(&args),
         Command::Check(args) => check::run(&args),
         Command::Distance(args) => distance::run(&args),
+        Command::Phantom(args) => phantom::run(&args),
+        Command::Demo(args) => demo::run(&args),
     });
     match result {
         Ok(code) => code,
@@ -70,4 +78,16 @@ struct Output {
     /// Output file; the format follows the extension.
     #[arg(short = 'o', long = "output")]
     path: PathBuf,
+}
+
+/// Parses "x,y,z" into three numbers.
+fn parse_triple(text: &str) -> Result<[f64; 3], String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("'{text}' is not three numbers x,y,z: {e}"))?;
+    values
+        .try_into()
+        .map_err(|v: Vec<f64>| format!("'{text}' has {} numbers; give three: x,y,z", v.len()))
 }
