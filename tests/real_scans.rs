@@ -1,0 +1,128 @@
+//! The geometry kernels on the real scans (`BALLOONSEG_DATA`, see ../shared/data/README.md):
+//! marching cubes of vmtk's aorta level set against vmtk's own surface, and the signed
+//! distance's sign and magnitude on the aorta grid.
+
+#![cfg(feature = "io")]
+
+use balloonseg::marching_cubes::marching_cubes;
+use balloonseg::signed_distance::{signed_distance, SignedDistanceOptions};
+use balloonseg::test_data::data_dir;
+use balloonseg::{io, mesh_checks, self_intersection::self_intersections, Image, TriMesh};
+use glam::DVec3;
+
+fn aorta_level_set() -> Option<Image> {
+    let dir = data_dir()?;
+    Some(io::read_image(&dir.join("vmtk-aorta/aorta-reference-levelset.mha")).unwrap())
+}
+
+fn voxels_f64(image: &Image) -> Vec<f64> {
+    let v = image.view();
+    let [nx, ny, nz] = image.dims();
+    let mut out = Vec::with_capacity(nx * ny * nz);
+    for k in 0..nz {
+        for j in 0..ny {
+            for i in 0..nx {
+                out.push(v.get_f64(i, j, k));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn aorta_level_set_isosurface_is_vmtks_surface() {
+    let Some(level_set) = aorta_level_set() else {
+        return;
+    };
+    let mesh = marching_cubes(&level_set.view(), 0.0).unwrap();
+    // The counts vmtk's surface and VTK's marching cubes give (../shared/data/README.md).
+    assert_eq!(mesh.points().len(), 6468);
+    assert_eq!(mesh.triangles().len(), 12932);
+    let report = mesh_checks::check(&mesh);
+    assert!(report.is_valid_closed_surface(), "{report:?}");
+    assert_eq!(report.genus(), Some(0));
+    assert!(self_intersections(&mesh).is_empty());
+
+    // vmtk's file is in (156.445, 24.6094, 0) + spacing ⊙ index: the image's x and y negated,
+    // float32, and facing inward.
+    let reference = io::read_mesh(&data_dir().unwrap().join("vmtk-aorta/aorta-reference-surface.vtp"))
+        .unwrap();
+    let key = |p: DVec3| [(p.x * 1e3).round() as i64, (p.y * 1e3).round() as i64, (p.z * 1e3).round() as i64];
+    let mut ours: Vec<_> = mesh.points().iter().map(|&p| key(DVec3::new(-p.x, -p.y, p.z))).collect();
+    let mut theirs: Vec<_> = reference.points().iter().map(|&p| key(p)).collect();
+    ours.sort_unstable();
+    theirs.sort_unstable();
+    let matching = ours.iter().zip(&theirs).filter(|(a, b)| a == b).count();
+    assert!(matching as f64 >= 0.999 * ours.len() as f64, "{matching} of {} points agree to 1 µm", ours.len());
+    let volume = report.signed_volume;
+    assert!((volume + TriMesh::signed_volume(&reference)).abs() < 1e-3 * volume, "{volume}");
+}
+
+#[test]
+fn aorta_signed_distance_has_the_level_sets_sign_everywhere_and_exact_band_values() {
+    let Some(level_set) = aorta_level_set() else {
+        return;
+    };
+    let surface = marching_cubes(&level_set.view(), 0.0).unwrap();
+    let options = SignedDistanceOptions::default();
+    let geometry = *level_set.geometry();
+    let distance = signed_distance(&surface, &surface, level_set.dims(), &geometry, &options).unwrap();
+    let d = voxels_f64(&distance);
+    let phi = voxels_f64(&level_set);
+
+    // Marching cubes separates every grid point by the sign of its sample, so the grid points
+    // inside the surface are exactly those with a negative level set value.
+    let wrong = phi
+        .iter()
+        .zip(&d)
+        .filter(|(&p, &q)| p != 0.0 && (p < 0.0) != (q < 0.0))
+        .count();
+    assert_eq!(wrong, 0, "voxels whose sign disagrees with the level set");
+
+    // Within the band, values are the exact distance to the nearest triangle: brute force on a
+    // sample of voxels.
+    let band = options.band_mm(&geometry);
+    let [nx, ny, _] = level_set.dims();
+    let mut checked = 0;
+    for (n, &value) in d.iter().enumerate().step_by(37) {
+        if value.abs() >= band {
+            continue;
+        }
+        let index = DVec3::new((n % nx) as f64, (n / nx % ny) as f64, (n / (nx * ny)) as f64);
+        let p = geometry.index_to_world(index);
+        let exact = (0..surface.triangles().len())
+            .map(|t| point_triangle_distance(p, surface.corners(t)))
+            .fold(f64::INFINITY, f64::min);
+        assert!((value.abs() - exact).abs() < 1e-9, "voxel {index}: {value} vs {exact}");
+        checked += 1;
+    }
+    assert!(checked > 1000, "only {checked} band voxels sampled");
+}
+
+/// Reference point–triangle distance by projection and edge clamping, independent of the
+/// library's closest-point code.
+fn point_triangle_distance(p: DVec3, [a, b, c]: [DVec3; 3]) -> f64 {
+    let n = (b - a).cross(c - a);
+    if n.length_squared() > 0.0 {
+        let n = n.normalize();
+        let q = p - n * (p - a).dot(n);
+        let inside = [(a, b), (b, c), (c, a)]
+            .iter()
+            .all(|&(u, v)| (v - u).cross(q - u).dot(n) >= 0.0);
+        if inside {
+            return (p - q).length();
+        }
+    }
+    [(a, b), (b, c), (c, a)]
+        .iter()
+        .map(|&(u, v)| {
+            let e = v - u;
+            let t = if e.length_squared() > 0.0 {
+                ((p - u).dot(e) / e.length_squared()).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (p - (u + t * e)).length()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
