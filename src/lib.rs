@@ -8,7 +8,11 @@
 
 pub mod error;
 pub mod geometry;
+#[cfg(feature = "io")]
+pub mod io;
 pub mod mesh;
+#[cfg(test)]
+mod test_data;
 pub mod volume;
 
 pub use error::{Error, ErrorKind, Result};
