@@ -489,9 +489,9 @@ fn encode(image: &Image, little_endian: bool) -> Result<Vec<u8>> {
     }
     w.f32s(268, &origin_ras);
     w.i16(254, XFORM_SCANNER);
-    for row in 0..3 {
+    for (row, t) in origin_ras.iter().enumerate() {
         let r = affine.row(row);
-        w.f32s(280 + 16 * row, &[r.x, r.y, r.z, origin_ras[row]]);
+        w.f32s(280 + 16 * row, &[r.x, r.y, r.z, *t]);
     }
     w.bytes[344..348].copy_from_slice(b"n+1\0");
 
@@ -641,50 +641,34 @@ mod tests {
     fn unsupported_headers_say_what_is_wrong() {
         let image = pattern_image(ScalarType::U8, [2, 2, 2], Geometry::identity(), 7);
         let good = encode(&image, true).unwrap();
-        let edit = |f: &dyn Fn(&mut Vec<u8>)| {
-            let mut file = good.clone();
-            f(&mut file);
-            decode(&file).unwrap_err()
-        };
-        let cases: [(&dyn Fn(&mut Vec<u8>), &str); 9] = [
-            (
-                &|f| {
-                    set_i16(f, 40, 4);
-                    set_i16(f, 48, 0)
-                },
-                "dim[4] is 0",
-            ),
-            (
-                &|f| {
-                    set_i16(f, 40, 4);
-                    set_i16(f, 48, 5)
-                },
-                "dim[4] is 5: a time series",
-            ),
-            (
-                &|f| {
-                    set_i16(f, 40, 5);
-                    set_i16(f, 50, 3)
-                },
-                "dim[5] is 3",
-            ),
-            (&|f| set_i16(f, 40, 9), "dim[0] is 9"),
-            (&|f| set_i16(f, 70, 128), "datatype 128 (RGB24)"),
-            (
-                &|f| f[0..4].copy_from_slice(&540i32.to_le_bytes()),
-                "NIfTI-2",
-            ),
-            (&|f| f[344..348].copy_from_slice(b"ni1\0"), ".hdr/.img"),
-            (&|f| f.truncate(356), "holds 4 bytes but"),
-            (&|f| set_i16(f, 44, 30000), "need"),
-        ];
-        for (change, expected) in cases {
-            let e = edit(change);
+        let check = |file: &[u8], expected: &str| {
+            let e = decode(file).unwrap_err();
             assert_eq!(e.kind(), crate::ErrorKind::Format);
             assert!(e.message().contains(expected), "{expected}: {e}");
+        };
+        let fields: [(&[(usize, i16)], &str); 6] = [
+            (&[(40, 4), (48, 0)], "dim[4] is 0"),
+            (&[(40, 4), (48, 5)], "dim[4] is 5: a time series"),
+            (&[(40, 5), (50, 3)], "dim[5] is 3"),
+            (&[(40, 9)], "dim[0] is 9"),
+            (&[(70, 128)], "datatype 128 (RGB24)"),
+            (&[(44, 30000)], "need"),
+        ];
+        for (edits, expected) in fields {
+            let mut file = good.clone();
+            for &(offset, value) in edits {
+                set_i16(&mut file, offset, value);
+            }
+            check(&file, expected);
         }
-        let e = decode(&[0; 100]).unwrap_err();
-        assert!(e.message().contains("fewer than the 348"), "{e}");
+        let mut file = good.clone();
+        file[0..4].copy_from_slice(&540i32.to_le_bytes());
+        check(&file, "NIfTI-2");
+        let mut file = good.clone();
+        file[344..348].copy_from_slice(b"ni1\0");
+        check(&file, ".hdr/.img");
+        check(&good[..356], "holds 4 bytes but");
+        check(&[0; 100], "fewer than the 348");
         let huge = pattern_image(ScalarType::U8, [40000, 1, 1], Geometry::identity(), 8);
         assert_eq!(
             encode(&huge, true).unwrap_err().kind(),

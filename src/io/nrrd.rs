@@ -152,7 +152,7 @@ impl Header {
                 header.data_start = Some(pos);
                 break;
             }
-            if text.starts_with('#') || text.contains(":=") {
+            if text.starts_with('#') {
                 continue;
             }
             let Some((key, value)) = text.split_once(':') else {
@@ -161,6 +161,10 @@ impl Header {
                     "header line {line_number} ('{start}') is not 'field: value'"
                 )));
             };
+            if value.starts_with('=') {
+                // A `key:=value` pair: free-form metadata.
+                continue;
+            }
             let key: String = key.to_ascii_lowercase().split_whitespace().collect();
             let value = value.trim().to_string();
             let is_list = key == "datafile" && value.split_whitespace().next() == Some("LIST");
@@ -597,6 +601,7 @@ mod tests {
         // pynrrd writes this file; SimpleITK reads origin (-1,-2,3), direction diag(-1,-1,1).
         let header = "NRRD0005\ntype: int16\ndimension: 3\nspace: right-anterior-superior\n\
                       sizes: 2 1 1\nspace directions: (0.5,0,0) (0,2,0) (0,0,3)\n\
+                      DICOM_0008_0060:=MR\ncontent: a:=b\n\
                       endian: big\nencoding: raw\nspace origin: (1,2,3)\n\n";
         let image = decode(&attached(header, &[0, 1, 255, 254]), Path::new("x.nrrd")).unwrap();
         assert_eq!(image.buffer(), &VoxelBuffer::I16(vec![1, -2]));
