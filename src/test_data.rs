@@ -6,6 +6,8 @@ use std::io::Write;
 use std::path::PathBuf;
 
 /// The data folder, or `None` after printing why the calling test skips. Panics on CI.
+// Reading the scans takes the file readers, so without the `io` feature nothing calls this.
+#[cfg_attr(not(feature = "io"), allow(dead_code))]
 pub(crate) fn data_dir() -> Option<PathBuf> {
     let dir = std::env::var_os("BALLOONSEG_DATA")
         .filter(|v| !v.is_empty())

@@ -15,6 +15,9 @@ use crate::error::{Error, Result};
 const MAX_DEFLATE_RATIO: usize = 1032;
 /// zlib or gzip framing on top of the DEFLATE bound.
 const FRAMING_BYTES: usize = 64;
+/// zlib level 1: on a CT scan it writes about ten times faster than the default level 6 for
+/// files about a fifth larger (aorta.mha: 4.0 MB instead of 3.4 MB).
+const LEVEL: Compression = Compression::fast();
 /// Up-front allocation relative to the compressed size; past it the output grows only as
 /// decompressed bytes really arrive.
 const PREALLOCATE_RATIO: usize = 16;
@@ -79,7 +82,7 @@ fn compress_error(e: std::io::Error) -> Error {
 
 /// A zlib stream (MetaImage's `CompressedData = True`).
 pub(crate) fn zlib(bytes: &[u8]) -> Result<Vec<u8>> {
-    let mut encoder = ZlibEncoder::new(Vec::new(), Compression::default());
+    let mut encoder = ZlibEncoder::new(Vec::new(), LEVEL);
     encoder
         .write_all(bytes)
         .and_then(|()| encoder.finish())
@@ -88,7 +91,7 @@ pub(crate) fn zlib(bytes: &[u8]) -> Result<Vec<u8>> {
 
 /// A gzip stream (NRRD's `encoding: gzip`, `.nii.gz`).
 pub(crate) fn gzip(bytes: &[u8]) -> Result<Vec<u8>> {
-    let mut encoder = GzEncoder::new(Vec::new(), Compression::default());
+    let mut encoder = GzEncoder::new(Vec::new(), LEVEL);
     encoder
         .write_all(bytes)
         .and_then(|()| encoder.finish())
