@@ -70,7 +70,7 @@ pub(crate) fn has_suffix(path: &Path, suffix: &str) -> bool {
 
 /// One line of a text header and the offset of the byte after its line feed.
 pub(crate) struct Line<'a> {
-    pub text: std::borrow::Cow<'a, str>,
+    pub text: Cow<'a, str>,
     pub next: usize,
 }
 
