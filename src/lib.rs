@@ -8,9 +8,13 @@
 
 pub mod error;
 pub mod geometry;
+#[cfg(feature = "io")]
+pub mod io;
 pub mod mesh;
 pub mod mesh_checks;
 pub mod phantom;
+#[doc(hidden)]
+pub mod test_data;
 pub mod volume;
 
 pub use error::{Error, ErrorKind, Result};

@@ -45,17 +45,38 @@ fn aorta_level_set_isosurface_is_vmtks_surface() {
 
     // vmtk's file is in (156.445, 24.6094, 0) + spacing ⊙ index: the image's x and y negated,
     // float32, and facing inward.
-    let reference = io::read_mesh(&data_dir().unwrap().join("vmtk-aorta/aorta-reference-surface.vtp"))
-        .unwrap();
-    let key = |p: DVec3| [(p.x * 1e3).round() as i64, (p.y * 1e3).round() as i64, (p.z * 1e3).round() as i64];
-    let mut ours: Vec<_> = mesh.points().iter().map(|&p| key(DVec3::new(-p.x, -p.y, p.z))).collect();
+    let reference = io::read_mesh(
+        &data_dir()
+            .unwrap()
+            .join("vmtk-aorta/aorta-reference-surface.vtp"),
+    )
+    .unwrap();
+    let key = |p: DVec3| {
+        [
+            (p.x * 1e3).round() as i64,
+            (p.y * 1e3).round() as i64,
+            (p.z * 1e3).round() as i64,
+        ]
+    };
+    let mut ours: Vec<_> = mesh
+        .points()
+        .iter()
+        .map(|&p| key(DVec3::new(-p.x, -p.y, p.z)))
+        .collect();
     let mut theirs: Vec<_> = reference.points().iter().map(|&p| key(p)).collect();
     ours.sort_unstable();
     theirs.sort_unstable();
     let matching = ours.iter().zip(&theirs).filter(|(a, b)| a == b).count();
-    assert!(matching as f64 >= 0.999 * ours.len() as f64, "{matching} of {} points agree to 1 µm", ours.len());
+    assert!(
+        matching as f64 >= 0.999 * ours.len() as f64,
+        "{matching} of {} points agree to 1 µm",
+        ours.len()
+    );
     let volume = report.signed_volume;
-    assert!((volume + TriMesh::signed_volume(&reference)).abs() < 1e-3 * volume, "{volume}");
+    assert!(
+        (volume + TriMesh::signed_volume(&reference)).abs() < 1e-3 * volume,
+        "{volume}"
+    );
 }
 
 #[test]
@@ -66,7 +87,8 @@ fn aorta_signed_distance_has_the_level_sets_sign_everywhere_and_exact_band_value
     let surface = marching_cubes(&level_set.view(), 0.0).unwrap();
     let options = SignedDistanceOptions::default();
     let geometry = *level_set.geometry();
-    let distance = signed_distance(&surface, &surface, level_set.dims(), &geometry, &options).unwrap();
+    let distance =
+        signed_distance(&surface, &surface, level_set.dims(), &geometry, &options).unwrap();
     let d = voxels_f64(&distance);
     let phi = voxels_f64(&level_set);
 
@@ -88,12 +110,19 @@ fn aorta_signed_distance_has_the_level_sets_sign_everywhere_and_exact_band_value
         if value.abs() >= band {
             continue;
         }
-        let index = DVec3::new((n % nx) as f64, (n / nx % ny) as f64, (n / (nx * ny)) as f64);
+        let index = DVec3::new(
+            (n % nx) as f64,
+            (n / nx % ny) as f64,
+            (n / (nx * ny)) as f64,
+        );
         let p = geometry.index_to_world(index);
         let exact = (0..surface.triangles().len())
             .map(|t| point_triangle_distance(p, surface.corners(t)))
             .fold(f64::INFINITY, f64::min);
-        assert!((value.abs() - exact).abs() < 1e-9, "voxel {index}: {value} vs {exact}");
+        assert!(
+            (value.abs() - exact).abs() < 1e-9,
+            "voxel {index}: {value} vs {exact}"
+        );
         checked += 1;
     }
     assert!(checked > 1000, "only {checked} band voxels sampled");

@@ -3,28 +3,22 @@
 //! Every reader turns a corrupt or truncated file into an error that names the file and what is
 //! wrong; none of them panics or trusts a size it has not checked against the file.
 
+mod compression;
 pub mod metaimage;
 pub mod nifti;
 pub mod nrrd;
-pub mod obj;
-pub mod off;
-pub mod ply;
-pub mod stl;
-pub mod vtk_legacy;
-pub mod vtk_xml;
+#[cfg(test)]
+mod test_images;
+mod text_header;
 
 use std::path::Path;
 
-pub use crate::io::point_data::{PointData, PointValues};
-use crate::{Error, Image, Result, TriMesh};
+use crate::{Error, Image, Result};
 
 /// The volume extensions [`read_image`] understands.
-pub const IMAGE_READ_FORMATS: &str = ".mha, .mhd, .nrrd, .nhdr, .nii, .nii.gz, .vti, .vtk";
+pub const IMAGE_READ_FORMATS: &str = ".mha, .mhd, .nrrd, .nhdr, .nii, .nii.gz";
 /// The volume extensions [`write_image`] understands.
 pub const IMAGE_WRITE_FORMATS: &str = ".mha, .nrrd, .nii.gz";
-/// The mesh extensions [`read_mesh`] and [`write_mesh`] understand.
-pub const MESH_FORMATS: &str = ".vtp, .vtk, .ply, .stl, .obj, .off";
-
 /// The lower-case extension, with `.nii.gz` kept whole.
 fn extension(path: &Path) -> String {
     let name = path
@@ -52,8 +46,6 @@ pub fn read_image(path: &Path) -> Result<Image> {
         "mha" | "mhd" => metaimage::read(path),
         "nrrd" | "nhdr" => nrrd::read(path),
         "nii" | "nii.gz" => nifti::read(path),
-        "vti" => vtk_xml::read_vti(path),
-        "vtk" => vtk_legacy::read_image(path),
         _ => Err(unsupported(path, "volume", IMAGE_READ_FORMATS)),
     }
 }
@@ -65,32 +57,5 @@ pub fn write_image(path: &Path, image: &Image) -> Result<()> {
         "nrrd" => nrrd::write(path, image),
         "nii.gz" => nifti::write(path, image),
         _ => Err(unsupported(path, "volume", IMAGE_WRITE_FORMATS)),
-    }
-}
-
-/// Reads a triangle mesh (polygons are fan-triangulated); the format follows the extension.
-pub fn read_mesh(path: &Path) -> Result<TriMesh> {
-    match extension(path).as_str() {
-        "vtp" => vtk_xml::read_vtp(path),
-        "vtk" => vtk_legacy::read_mesh(path),
-        "ply" => ply::read(path),
-        "stl" => stl::read(path),
-        "obj" => obj::read(path),
-        "off" => off::read(path),
-        _ => Err(unsupported(path, "mesh", MESH_FORMATS)),
-    }
-}
-
-/// Writes a mesh with optional per-point arrays (kept by .vtp, .vtk and .ply; the other formats
-/// have no place for them).
-pub fn write_mesh(path: &Path, mesh: &TriMesh, point_data: &[PointData]) -> Result<()> {
-    match extension(path).as_str() {
-        "vtp" => vtk_xml::write_vtp(path, mesh, point_data),
-        "vtk" => vtk_legacy::write_mesh(path, mesh, point_data),
-        "ply" => ply::write(path, mesh, point_data),
-        "stl" => stl::write(path, mesh, point_data),
-        "obj" => obj::write(path, mesh, point_data),
-        "off" => off::write(path, mesh),
-        _ => Err(unsupported(path, "mesh", MESH_FORMATS)),
     }
 }

@@ -43,9 +43,15 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         let start = Instant::now();
         let mesh = marching_cubes(&p.image.view(), level)?;
         let seconds = start.elapsed().as_secs_f64();
-        io::write_mesh(&args.dir.join(format!("{}-isosurface.vtp", shape.name())), &mesh, &[])?;
+        io::write_mesh(
+            &args.dir.join(format!("{}-isosurface.vtp", shape.name())),
+            &mesh,
+            &[],
+        )?;
         let check = mesh_checks::check(&mesh);
-        let genus = check.genus().map_or("-".to_string(), |g| format!("{g} ({})", shape.genus()));
+        let genus = check
+            .genus()
+            .map_or("-".to_string(), |g| format!("{g} ({})", shape.genus()));
         writeln!(
             report,
             "{:<15} {:>9} {:>6} {:>9} {:>6} {:>10.0} {:>10.0} {:>8.3}",

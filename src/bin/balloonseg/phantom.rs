@@ -68,6 +68,9 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         "seed_index": index.to_array(),
         "genus": shape.genus(),
     });
-    println!("{}", serde_json::to_string_pretty(&summary).expect("plain JSON values"));
+    println!(
+        "{}",
+        serde_json::to_string_pretty(&summary).expect("plain JSON values")
+    );
     Ok(ExitCode::SUCCESS)
 }
