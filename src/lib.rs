@@ -6,12 +6,16 @@
 //! signed distance and mesh checks. Everything works on borrowed, strided volumes of any
 //! supported scalar type and produces meshes in world millimetres.
 
+pub mod closest_point;
 pub mod error;
 pub mod geometry;
 pub mod mesh;
+pub mod signed_distance;
 pub mod volume;
+pub mod winding_number;
 
 pub use error::{Error, ErrorKind, Result};
 pub use geometry::Geometry;
 pub use mesh::TriMesh;
+pub use signed_distance::{signed_distance, SignedDistanceOptions};
 pub use volume::{Image, Scalar, ScalarType, TypedVolume, Volume, VoxelBuffer, VoxelVisitor};
