@@ -46,7 +46,12 @@ fn export(dir: &Path) -> Result<()> {
         .flat_map(|p| p.to_array())
         .flat_map(f64::to_le_bytes)
         .collect();
-    let triangles: Vec<u8> = tube.triangles().iter().flatten().flat_map(|v| v.to_le_bytes()).collect();
+    let triangles: Vec<u8> = tube
+        .triangles()
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
     write(&dir.join("points.f64"), &points)?;
     write(&dir.join("triangles.u32"), &triangles)?;
     println!(

@@ -21,12 +21,21 @@ const DEGENERATE_AREA_RATIO: f64 = 1e-8;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Triangle {
     a: DVec3,
-    b: DVec3,
-    c: DVec3,
     ab: DVec3,
     ac: DVec3,
-    /// `ab × ac`, or `None` for a degenerate triangle.
-    normal: Option<DVec3>,
+    /// Gram terms `ab·ab`, `ab·ac`, `ac·ac`: with them the six dot products of Ericson's region
+    /// tests follow from two (`bp = ap − ab`, `cp = ap − ac`).
+    ab_ab: f64,
+    ab_ac: f64,
+    ac_ac: f64,
+    /// `ab × ac` and `1 / |ab × ac|²`, or `None` for a degenerate triangle.
+    normal: Option<(DVec3, f64)>,
+}
+
+/// Where the closest point lies: `a + offset` on an edge or a corner, or inside the face.
+enum Nearest {
+    Boundary(DVec3),
+    Face,
 }
 
 impl Triangle {
@@ -41,79 +50,105 @@ impl Triangle {
         let usable = n.length() > DEGENERATE_AREA_RATIO * longest2;
         Triangle {
             a,
-            b,
-            c,
             ab,
             ac,
-            normal: usable.then_some(n),
+            ab_ab: ab.length_squared(),
+            ab_ac: ab.dot(ac),
+            ac_ac: ac.length_squared(),
+            normal: usable.then(|| (n, 1.0 / n.length_squared())),
         }
     }
 
     pub fn corners(&self) -> [DVec3; 3] {
-        [self.a, self.b, self.c]
+        [self.a, self.a + self.ab, self.a + self.ac]
     }
 
     /// The unnormalised normal `(b − a) × (c − a)`, `None` when the triangle is degenerate.
     pub fn normal(&self) -> Option<DVec3> {
-        self.normal
+        self.normal.map(|(n, _)| n)
     }
 
     /// The point of the triangle closest to `p`.
     pub fn closest_point(&self, p: DVec3) -> DVec3 {
-        let Some(n) = self.normal else {
-            let candidates = [
-                closest_point_on_segment(p, self.a, self.b),
-                closest_point_on_segment(p, self.b, self.c),
-                closest_point_on_segment(p, self.c, self.a),
-            ];
-            return candidates
-                .into_iter()
-                .min_by(|x, y| {
-                    (p - *x)
-                        .length_squared()
-                        .total_cmp(&(p - *y).length_squared())
-                })
-                .unwrap_or(self.a);
-        };
-        let (a, b, c, ab, ac) = (self.a, self.b, self.c, self.ab, self.ac);
-        let ap = p - a;
-        let d1 = ab.dot(ap);
-        let d2 = ac.dot(ap);
-        if d1 <= 0.0 && d2 <= 0.0 {
-            return a;
+        let ap = p - self.a;
+        match self.normal {
+            None => self.a + self.degenerate_offset(ap),
+            Some((n, inv_n2)) => match self.nearest(ap) {
+                Nearest::Boundary(offset) => self.a + offset,
+                Nearest::Face => p - n * (n.dot(ap) * inv_n2),
+            },
         }
-        let bp = p - b;
-        let d3 = ab.dot(bp);
-        let d4 = ac.dot(bp);
-        if d3 >= 0.0 && d4 <= d3 {
-            return b;
-        }
-        let vc = d1 * d4 - d3 * d2;
-        if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-            return a + ab * fraction(d1, d1 - d3);
-        }
-        let cp = p - c;
-        let d5 = ab.dot(cp);
-        let d6 = ac.dot(cp);
-        if d6 >= 0.0 && d5 <= d6 {
-            return c;
-        }
-        let vb = d5 * d2 - d1 * d6;
-        if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-            return a + ac * fraction(d2, d2 - d6);
-        }
-        let va = d3 * d6 - d5 * d4;
-        let (along_b, along_c) = (d4 - d3, d5 - d6);
-        if va <= 0.0 && along_b >= 0.0 && along_c >= 0.0 {
-            return b + (c - b) * fraction(along_b, along_b + along_c);
-        }
-        p - n * (n.dot(ap) / n.length_squared())
     }
 
     /// Squared Euclidean distance from `p` to the triangle.
     #[inline]
     pub fn distance_squared(&self, p: DVec3) -> f64 {
-        (p - self.closest_point(p)).length_squared()
+        let ap = p - self.a;
+        match self.normal {
+            None => (ap - self.degenerate_offset(ap)).length_squared(),
+            Some((n, inv_n2)) => match self.nearest(ap) {
+                Nearest::Boundary(offset) => (ap - offset).length_squared(),
+                Nearest::Face => {
+                    let h = n.dot(ap);
+                    h * h * inv_n2
+                }
+            },
+        }
+    }
+
+    /// Ericson's Voronoi-region walk for `p = a + ap`.
+    #[inline]
+    fn nearest(&self, ap: DVec3) -> Nearest {
+        let (ab, ac) = (self.ab, self.ac);
+        let d1 = ab.dot(ap);
+        let d2 = ac.dot(ap);
+        if d1 <= 0.0 && d2 <= 0.0 {
+            return Nearest::Boundary(DVec3::ZERO);
+        }
+        // ab·bp and ac·bp.
+        let d3 = d1 - self.ab_ab;
+        let d4 = d2 - self.ab_ac;
+        if d3 >= 0.0 && d4 <= d3 {
+            return Nearest::Boundary(ab);
+        }
+        let vc = d1 * d4 - d3 * d2;
+        if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+            return Nearest::Boundary(ab * fraction(d1, d1 - d3));
+        }
+        // ab·cp and ac·cp.
+        let d5 = d1 - self.ab_ac;
+        let d6 = d2 - self.ac_ac;
+        if d6 >= 0.0 && d5 <= d6 {
+            return Nearest::Boundary(ac);
+        }
+        let vb = d5 * d2 - d1 * d6;
+        if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+            return Nearest::Boundary(ac * fraction(d2, d2 - d6));
+        }
+        let va = d3 * d6 - d5 * d4;
+        let (along_b, along_c) = (d4 - d3, d5 - d6);
+        if va <= 0.0 && along_b >= 0.0 && along_c >= 0.0 {
+            return Nearest::Boundary(ab + (ac - ab) * fraction(along_b, along_b + along_c));
+        }
+        Nearest::Face
+    }
+
+    /// For a degenerate triangle, `closest − a` over its three edges.
+    fn degenerate_offset(&self, ap: DVec3) -> DVec3 {
+        let (ab, ac) = (self.ab, self.ac);
+        let candidates = [
+            closest_point_on_segment(ap, DVec3::ZERO, ab),
+            closest_point_on_segment(ap, ab, ac),
+            closest_point_on_segment(ap, DVec3::ZERO, ac),
+        ];
+        candidates
+            .into_iter()
+            .min_by(|x, y| {
+                (ap - *x)
+                    .length_squared()
+                    .total_cmp(&(ap - *y).length_squared())
+            })
+            .unwrap_or(DVec3::ZERO)
     }
 }
 

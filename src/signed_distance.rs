@@ -23,7 +23,7 @@ use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::mesh::TriMesh;
 use crate::volume::{Image, VoxelBuffer};
-use crate::winding_number::{index_range, inside_mask, voxel_count, SlabBins};
+use crate::winding_number::{index_range, voxel_count, winding_numbers, SlabBins};
 
 /// Relative growth of the regions scanned per triangle, so that rounding in the region bounds
 /// never drops a voxel at exactly the band's distance; extra voxels are harmless.
@@ -80,23 +80,22 @@ pub fn signed_distance(
     options.validate()?;
     let len = voxel_count(dims)?;
     let band = options.band_mm(geometry);
-    let inside = inside_mask(inside_from, dims, geometry)?;
-    let band2 = band * band;
-    let mut field = band_distance_squared(surface, dims, len, geometry, band);
+    let winding = winding_numbers(inside_from, dims, geometry)?;
+    let mut field = band_distance(surface, dims, len, geometry, band);
     field
         .par_iter_mut()
-        .zip(inside.par_iter())
-        .for_each(|(v, &inside)| {
-            // Exactly ±band outside the band, not sqrt(band²).
-            let d = if *v < band2 { v.sqrt() } else { band };
-            *v = if inside { -d } else { d };
+        .zip(winding.par_iter())
+        .for_each(|(d, &w)| {
+            if w > 0 {
+                *d = -*d;
+            }
         });
     Image::new(VoxelBuffer::F64(field), dims, *geometry)
 }
 
-/// Squared distance from every voxel centre to the nearest triangle of `surface` where that is
-/// less than `band²`, and `band²` elsewhere. `len` is the voxel count of the valid `dims`.
-fn band_distance_squared(
+/// Distance from every voxel centre to the nearest triangle of `surface` where that is less than
+/// `band`, and `band` elsewhere. `len` is the voxel count of the valid `dims`.
+fn band_distance(
     surface: &TriMesh,
     dims: [usize; 3],
     len: usize,
@@ -104,113 +103,202 @@ fn band_distance_squared(
     band: f64,
 ) -> Vec<f64> {
     let [ni, nj, nk] = dims;
+    let frame = RowFrame::new(geometry);
     let triangles: Vec<BandTriangle> = (0..surface.triangles().len())
-        .filter_map(|t| BandTriangle::new(surface.corners(t), geometry, dims, band))
+        .filter_map(|t| BandTriangle::new(surface.corners(t), geometry, nk, band))
         .collect();
-    let bins = SlabBins::new(nk, triangles.iter().map(|t| t.k_range));
-    let step = geometry.index_vector_to_world(DVec3::X);
-    let band2 = band * band;
-    let mut field = vec![band2; len];
+    let bins = SlabBins::new(nk, triangles.iter().map(|t| Some(t.k_range)));
+    let mut field = vec![band; len];
     field
         .par_chunks_mut(ni * nj)
         .enumerate()
         .for_each(|(k, slab)| {
+            let slab_origin = frame.origin + frame.step_k * k as f64;
             for &t in bins.slab(k) {
                 let tri = &triangles[t as usize];
-                for j in tri.j_range.0..=tri.j_range.1 {
-                    let row_start = geometry.index_to_world(DVec3::new(0.0, j as f64, k as f64));
-                    let Some((lo, hi)) = tri.row_interval(row_start, step, band) else {
-                        continue;
-                    };
-                    let Some((i0, i1)) = index_range(lo - INDEX_SLACK, hi + INDEX_SLACK, ni) else {
+                let Some((j0, j1)) = tri.rows(&frame, slab_origin, nj) else {
+                    continue;
+                };
+                for j in j0..=j1 {
+                    let row_start = slab_origin + frame.step_j * j as f64;
+                    let Some((i0, i1)) = tri.row_interval(&frame, row_start, band, ni) else {
                         continue;
                     };
                     let row = &mut slab[j * ni..(j + 1) * ni];
-                    for (i, d2) in (i0..=i1).zip(&mut row[i0..=i1]) {
-                        let p = row_start + step * i as f64;
-                        *d2 = d2.min(tri.triangle.distance_squared(p));
-                    }
+                    tri.update_row(&frame, row_start, i0, &mut row[i0..=i1]);
                 }
             }
         });
     field
 }
 
-/// A triangle with the part of the grid within the band of it: the index box of its band, and a
-/// ball around it for cutting each row.
+/// The grid's axes in world space: voxel (i, j, k) is at `origin + i·step_i + j·step_j +
+/// k·step_k`, and rows run along `step_i`.
+struct RowFrame {
+    origin: DVec3,
+    step_i: DVec3,
+    step_j: DVec3,
+    step_k: DVec3,
+    step_i2: f64,
+    /// `step_j` without its component along the rows, and its squared length.
+    step_j_across: DVec3,
+    step_j_across2: f64,
+}
+
+impl RowFrame {
+    fn new(geometry: &Geometry) -> Self {
+        let m = geometry.index_to_world_matrix();
+        let (step_i, step_j) = (m.x_axis, m.y_axis);
+        let step_i2 = step_i.length_squared();
+        let step_j_across = step_j - step_i * (step_i.dot(step_j) / step_i2);
+        RowFrame {
+            origin: DVec3::from(geometry.origin()),
+            step_i,
+            step_j,
+            step_k: m.z_axis,
+            step_i2,
+            step_j_across,
+            step_j_across2: step_j_across.length_squared(),
+        }
+    }
+
+    /// `v` without its component along the rows.
+    fn across(&self, v: DVec3) -> DVec3 {
+        v - self.step_i * (self.step_i.dot(v) / self.step_i2)
+    }
+}
+
+/// A triangle with the part of the grid that can be within the band of it: a ball around the
+/// triangle grown by the band, cut by the slab of half-width `band` along its plane.
 struct BandTriangle {
     triangle: Triangle,
     centre: DVec3,
+    /// Distance from `centre` to the farthest corner.
+    radius: f64,
+    /// Squared radius of the ball that holds every point within the band.
     reach2: f64,
-    unit_normal: Option<DVec3>,
-    j_range: (usize, usize),
-    k_range: Option<(usize, usize)>,
+    /// Unit normal `n` and offset `n·a` of the plane; a zero normal for a degenerate triangle,
+    /// which makes the plane tests below vacuous.
+    normal: DVec3,
+    offset: f64,
+    k_range: (usize, usize),
 }
 
 impl BandTriangle {
-    /// `None` when no voxel of the grid is within `band` of the triangle's box.
-    fn new(corners: [DVec3; 3], geometry: &Geometry, dims: [usize; 3], band: f64) -> Option<Self> {
+    /// `None` when the triangle's ball misses every k-slab of the grid.
+    fn new(corners: [DVec3; 3], geometry: &Geometry, nk: usize, band: f64) -> Option<Self> {
         let [a, b, c] = corners;
-        // Index-space box of the triangle grown by a ball of radius `band`: along index axis n
-        // the ball spans ±band·|row n of the world→index matrix|.
-        let to_index = geometry.world_to_index_matrix();
-        let index = corners.map(|p| geometry.world_to_index(p));
-        let axis_range = |n: usize| {
-            let reach = band * to_index.row(n).length() * (1.0 + REGION_SLACK) + INDEX_SLACK;
-            let lo = index[0][n].min(index[1][n]).min(index[2][n]);
-            let hi = index[0][n].max(index[1][n]).max(index[2][n]);
-            index_range(lo - reach, hi + reach, dims[n])
-        };
-        axis_range(0)?;
-        let j_range = axis_range(1)?;
-        let k_range = Some(axis_range(2)?);
         let triangle = Triangle::new(a, b, c);
         let centre = (a + b + c) / 3.0;
         let radius = (a - centre)
             .length()
             .max((b - centre).length())
-            .max((c - centre).length());
+            .max((c - centre).length())
+            * (1.0 + REGION_SLACK);
         let reach = (radius + band) * (1.0 + REGION_SLACK);
+        // Along index axis k a ball of radius r spans ±r·|row k of the world→index matrix|.
+        let k_reach = reach * geometry.world_to_index_matrix().row(2).length() + INDEX_SLACK;
+        let k = geometry.world_to_index(centre).z;
+        let k_range = index_range(k - k_reach, k + k_reach, nk)?;
+        let normal = triangle.normal().map_or(DVec3::ZERO, DVec3::normalize);
         Some(BandTriangle {
             triangle,
             centre,
+            radius,
             reach2: reach * reach,
-            unit_normal: triangle.normal().map(DVec3::normalize),
-            j_range,
+            normal,
+            offset: normal.dot(a),
             k_range,
         })
     }
 
-    /// The parameters `t` of the row `start + t·step` that can be within `band` of the triangle:
-    /// inside the ball around it and inside the slab of half-width `band` along its plane.
-    fn row_interval(&self, start: DVec3, step: DVec3, band: f64) -> Option<(f64, f64)> {
-        let w = start - self.centre;
-        let (ss, sw) = (step.length_squared(), step.dot(w));
-        let disc = sw * sw - ss * (w.length_squared() - self.reach2);
-        if disc.is_nan() || disc < 0.0 {
+    /// The rows j of the slab through `slab_origin` (its voxel (0, 0, k)) that meet the ball.
+    fn rows(&self, frame: &RowFrame, slab_origin: DVec3, nj: usize) -> Option<(usize, usize)> {
+        // Squared distance from the centre to row j: |w + j·step_j_across|², w across the rows.
+        let w = frame.across(slab_origin - self.centre);
+        let (a, half_b) = (frame.step_j_across2, w.dot(frame.step_j_across));
+        let (lo, hi) = quadratic_roots(a, half_b, w.length_squared() - self.reach2)?;
+        index_range(lo - INDEX_SLACK, hi + INDEX_SLACK, nj)
+    }
+
+    /// The voxels `i` of the row `row_start + i·step_i` that can be within `band` of the
+    /// triangle: inside its ball and inside the slab along its plane.
+    fn row_interval(
+        &self,
+        frame: &RowFrame,
+        row_start: DVec3,
+        band: f64,
+        ni: usize,
+    ) -> Option<(usize, usize)> {
+        let w = row_start - self.centre;
+        let (mut lo, mut hi) = quadratic_roots(
+            frame.step_i2,
+            frame.step_i.dot(w),
+            w.length_squared() - self.reach2,
+        )?;
+        let half = band * (1.0 + REGION_SLACK);
+        let (height, rate) = (self.height(row_start), self.normal.dot(frame.step_i));
+        if rate != 0.0 {
+            let (ta, tb) = ((-half - height) / rate, (half - height) / rate);
+            lo = lo.max(ta.min(tb));
+            hi = hi.min(ta.max(tb));
+        } else if height.abs() > half {
             return None;
         }
-        let root = disc.sqrt();
-        let (mut lo, mut hi) = ((-sw - root) / ss, (-sw + root) / ss);
-        if let Some(n) = self.unit_normal {
-            let half = band * (1.0 + REGION_SLACK);
-            let (height, rate) = (n.dot(start - self.triangle.corners()[0]), n.dot(step));
-            if rate != 0.0 {
-                let (ta, tb) = ((-half - height) / rate, (half - height) / rate);
-                lo = lo.max(ta.min(tb));
-                hi = hi.min(ta.max(tb));
-            } else if height.abs() > half {
-                return None;
-            }
-        }
-        (lo <= hi).then_some((lo, hi))
+        index_range(lo - INDEX_SLACK, hi + INDEX_SLACK, ni)
     }
+
+    /// Signed distance from `p` to the triangle's plane (0 for a degenerate triangle).
+    fn height(&self, p: DVec3) -> f64 {
+        self.normal.dot(p) - self.offset
+    }
+
+    /// Lowers the distances of the row's voxels `i0, i0 + 1, …` (in `row`) to this triangle's.
+    ///
+    /// Most voxels that reach here are already closer to another triangle. Two lower bounds of
+    /// the distance to this one skip them cheaply: the distance to its bounding sphere (centre
+    /// and radius), then the distance to its bounding disk (that sphere cut by the plane).
+    /// `|p − centre|²` and the height above the plane follow the row by finite differences.
+    fn update_row(&self, frame: &RowFrame, row_start: DVec3, i0: usize, row: &mut [f64]) {
+        let step2 = frame.step_i2;
+        let first = row_start + frame.step_i * i0 as f64;
+        let w = first - self.centre;
+        let mut centre2 = w.length_squared();
+        let mut delta = 2.0 * frame.step_i.dot(w) + step2;
+        let mut height = self.height(first);
+        let rise = self.normal.dot(frame.step_i);
+        for (i, d) in (i0..).zip(row) {
+            let bound = *d + self.radius;
+            if centre2 < bound * bound {
+                let height2 = height * height;
+                let beyond_rim = ((centre2 - height2).max(0.0).sqrt() - self.radius).max(0.0);
+                if height2 + beyond_rim * beyond_rim < *d * *d {
+                    let p = row_start + frame.step_i * i as f64;
+                    *d = d.min(self.triangle.distance_squared(p).sqrt());
+                }
+            }
+            centre2 += delta;
+            delta += 2.0 * step2;
+            height += rise;
+        }
+    }
+}
+
+/// The roots of `a·t² + 2·half_b·t + c` (`a > 0`), where it is ≤ 0; `None` when it never is.
+fn quadratic_roots(a: f64, half_b: f64, c: f64) -> Option<(f64, f64)> {
+    let disc = half_b * half_b - a * c;
+    if disc.is_nan() || disc < 0.0 {
+        return None;
+    }
+    let root = disc.sqrt();
+    Some(((-half_b - root) / a, (-half_b + root) / a))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::mesh::test_shapes::{cube, icosphere};
+    use crate::winding_number::inside_mask;
     use crate::winding_number::test_fixtures::*;
 
     fn values(image: &Image) -> &[f64] {
@@ -413,6 +501,24 @@ mod tests {
             with_cap[voxel]
         );
         assert!(without[voxel] < -1.5, "{}", without[voxel]);
+    }
+
+    #[test]
+    fn degenerate_and_needle_triangles_match_brute_force() {
+        let g = oblique_geometry();
+        let dims = [14, 12, 10];
+        let at = |i, j, k| g.index_to_world(DVec3::new(i, j, k));
+        let (p, q, r) = (at(3.0, 3.0, 3.0), at(9.0, 8.0, 5.0), at(4.0, 9.0, 6.5));
+        let soup = [
+            [p, q, r],
+            [p, p, q],                                   // two equal corners
+            [p, (p + q) * 0.5, q],                       // collinear
+            [r, r, r],                                   // a point
+            [p, q, (p + q) * 0.5 + DVec3::splat(1e-11)], // a needle
+        ];
+        let surface = TriMesh::from_soup(&soup).unwrap();
+        let closed = icosphere(at(6.0, 6.0, 5.0), 3.0, 1);
+        assert_matches_brute_force(&surface, &closed, dims, &g, &Default::default());
     }
 
     #[test]

@@ -96,12 +96,21 @@ pub(crate) fn voxel_count(dims: [usize; 3]) -> Result<usize> {
     }
 }
 
-/// The integer indices in `[lo, hi]` that are also in `0..n`, as an inclusive pair.
+/// The integer indices in `[lo, hi]` that are also in `0..n`, as an inclusive pair; `None` for
+/// an empty range or a NaN bound.
 pub(crate) fn index_range(lo: f64, hi: f64, n: usize) -> Option<(usize, usize)> {
-    let lo = lo.ceil().max(0.0);
-    let hi = hi.floor().min(n as f64 - 1.0);
-    // NaN bounds fail this comparison too.
-    (lo <= hi).then_some((lo as usize, hi as usize))
+    if lo.is_nan() || hi.is_nan() {
+        return None;
+    }
+    // Clamped first, both are in [0, n − 1] and truncation is exact; this avoids the libm
+    // calls that `ceil` and `floor` become without SSE4.1, in the innermost setup loops.
+    let (lo, hi) = (lo.max(0.0), hi.min(n as f64 - 1.0));
+    if lo > hi {
+        return None;
+    }
+    let (first, last) = (lo as i64, hi as i64);
+    let first = first + i64::from((first as f64) < lo);
+    (first <= last).then_some((first as usize, last as usize))
 }
 
 /// Items grouped by the k-slabs they touch, in item order within each slab (so that per-slab
