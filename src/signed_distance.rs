@@ -177,7 +177,7 @@ impl RowFrame {
 struct BandTriangle {
     triangle: Triangle,
     centre: DVec3,
-    /// Distance from `centre` to the farthest corner.
+    /// Distance from `centre` to the farthest corner, grown by `REGION_SLACK`.
     radius: f64,
     /// Squared radius of the ball that holds every point within the band.
     reach2: f64,
