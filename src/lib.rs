@@ -6,6 +6,7 @@
 //! signed distance and mesh checks. Everything works on borrowed, strided volumes of any
 //! supported scalar type and produces meshes in world millimetres.
 
+pub mod closest_point;
 pub mod error;
 pub mod geometry;
 #[cfg(feature = "io")]
@@ -13,11 +14,14 @@ pub mod io;
 pub mod mesh;
 pub mod mesh_checks;
 pub mod phantom;
+pub mod signed_distance;
 #[doc(hidden)]
 pub mod test_data;
 pub mod volume;
+pub mod winding_number;
 
 pub use error::{Error, ErrorKind, Result};
 pub use geometry::Geometry;
 pub use mesh::TriMesh;
+pub use signed_distance::{signed_distance, SignedDistanceOptions};
 pub use volume::{Image, Scalar, ScalarType, TypedVolume, Volume, VoxelBuffer, VoxelVisitor};
