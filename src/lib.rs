@@ -8,6 +8,8 @@
 
 pub mod error;
 pub mod geometry;
+#[cfg(feature = "io")]
+pub mod io;
 pub mod mesh;
 pub mod volume;
 
