@@ -111,6 +111,14 @@ mod tests {
     }
 
     #[test]
+    fn empty_mesh_round_trips() {
+        assert_eq!(
+            parse(&to_bytes(&TriMesh::default())).unwrap(),
+            TriMesh::default()
+        );
+    }
+
+    #[test]
     fn round_trip_is_bit_exact() {
         let mesh = icosphere(DVec3::new(0.1, -1e-7, 3e5), 1.0 / 3.0, 2)
             .map_points(|p| p * std::f64::consts::PI)

@@ -327,6 +327,14 @@ mod tests {
     }
 
     #[test]
+    fn empty_mesh_round_trips() {
+        assert_eq!(
+            parse(&to_bytes(&TriMesh::default(), &[])).unwrap(),
+            TriMesh::default()
+        );
+    }
+
+    #[test]
     fn round_trip_with_point_data_is_bit_exact() {
         let mesh = icosphere(DVec3::new(1.0 / 3.0, -2.5, 1e4), 0.7, 2);
         let n = mesh.points().len();

@@ -339,6 +339,15 @@ mod tests {
     }
 
     #[test]
+    fn float32_text_widens_like_float32_binary() {
+        let mut c = Cursor::new(b"0.1 0.1");
+        let v = numbers(&mut c, 1, NumType::F32, Encoding::Text, "p").unwrap();
+        assert_eq!(v, [0.1f32 as f64]);
+        let v = numbers(&mut c, 1, NumType::F64, Encoding::Text, "p").unwrap();
+        assert_eq!(v, [0.1]);
+    }
+
+    #[test]
     fn text_voxels_are_parsed_in_their_own_type() {
         let mut c = Cursor::new(b"-50 7\n 300");
         let v = voxels(&mut c, 2, ScalarType::I16, Encoding::Text).unwrap();

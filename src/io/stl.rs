@@ -219,6 +219,14 @@ mod tests {
     }
 
     #[test]
+    fn empty_mesh_round_trips() {
+        assert_eq!(
+            parse(&to_bytes(&TriMesh::default())).unwrap(),
+            TriMesh::default()
+        );
+    }
+
+    #[test]
     fn binary_round_trip_keeps_corners_to_float32_and_welds_vertices() {
         let mesh = icosphere(DVec3::new(10.3, -4.1, 7.7), 12.5, 2);
         let bytes = to_bytes(&mesh);

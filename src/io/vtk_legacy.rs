@@ -9,7 +9,9 @@
 //! Surfaces: POINTS of any numeric type; POLYGONS (fan-triangulated) and TRIANGLE_STRIPS in
 //! both the classic cell-array layout and the OFFSETS/CONNECTIVITY layout of version 5.1;
 //! VERTICES and LINES are read past and ignored. The writer stores version 4.2 BINARY with
-//! double points, the layout every VTK release reads, and point data as SCALARS.
+//! double points, the layout every VTK release reads, and point data as a FIELD of point
+//! arrays (VTK's reader loads only the first SCALARS unless told otherwise, but every FIELD
+//! array).
 
 use std::io::Write;
 use std::path::Path;
@@ -30,7 +32,7 @@ pub fn read_mesh(path: &Path) -> Result<TriMesh> {
     files::parse_file(path, parse_mesh)
 }
 
-/// Writes a legacy VTK 4.2 BINARY POLYDATA file; each point data array becomes SCALARS.
+/// Writes a legacy VTK 4.2 BINARY POLYDATA file; the point data become FIELD point arrays.
 pub fn write_mesh(path: &Path, mesh: &TriMesh, point_data: &[PointData]) -> Result<()> {
     point_data::check(mesh, point_data, &[])?;
     check_fits(mesh)?;
@@ -470,20 +472,16 @@ fn write_mesh_to(
     }
     writeln!(w)?;
     if !point_data.is_empty() {
-        writeln!(w, "POINT_DATA {n}")?;
+        writeln!(w, "POINT_DATA {n}\nFIELD FieldData {}", point_data.len())?;
     }
     for data in point_data {
         match data.values {
             PointValues::U8(v) => {
-                writeln!(
-                    w,
-                    "SCALARS {} unsigned_char 1\nLOOKUP_TABLE default",
-                    data.name
-                )?;
+                writeln!(w, "{} 1 {n} unsigned_char", data.name)?;
                 w.write_all(v)?;
             }
             PointValues::F64(v) => {
-                writeln!(w, "SCALARS {} double 1\nLOOKUP_TABLE default", data.name)?;
+                writeln!(w, "{} 1 {n} double", data.name)?;
                 for x in v {
                     w.write_all(&x.to_be_bytes())?;
                 }
@@ -505,6 +503,14 @@ mod tests {
         let mut bytes = Vec::new();
         write_mesh_to(&mut bytes, mesh, point_data).unwrap();
         bytes
+    }
+
+    #[test]
+    fn empty_mesh_round_trips() {
+        assert_eq!(
+            parse_mesh(&to_bytes(&TriMesh::default(), &[])).unwrap(),
+            TriMesh::default()
+        );
     }
 
     #[test]

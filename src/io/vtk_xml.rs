@@ -277,7 +277,10 @@ pub(crate) fn parse_vti(bytes: &[u8]) -> Result<Image> {
     let scalar_type = array.ty.scalar_type().ok_or_else(|| {
         Error::format("64-bit integer voxels are not supported; convert to Int32 or Float64")
     })?;
-    let count = dims[0] * dims[1] * dims[2];
+    let count = dims
+        .iter()
+        .try_fold(1usize, |a, &d| a.checked_mul(d))
+        .ok_or_else(|| Error::format(format!("the extent {extent:?} is too large")))?;
     let buffer = array.voxels(count, scalar_type)?;
     let lowest = DVec3::new(extent[0], extent[2], extent[4]);
     let corner = image_geometry(spacing, origin, direction)?.index_to_world(lowest);
@@ -292,6 +295,15 @@ fn escape(name: &str) -> String {
         .replace('"', "&quot;")
 }
 
+/// The concatenated bytes of `count` 8-byte values.
+fn le_bytes(count: usize, values: impl Iterator<Item = [u8; 8]>) -> Vec<u8> {
+    let mut out = Vec::with_capacity(8 * count);
+    for v in values {
+        out.extend_from_slice(&v);
+    }
+    out
+}
+
 fn write_vtp_to(
     w: &mut impl Write,
     mesh: &TriMesh,
@@ -299,7 +311,7 @@ fn write_vtp_to(
     compression: Compression,
 ) -> std::io::Result<()> {
     let compress = compression == Compression::Zlib;
-    let le = |values: &mut dyn Iterator<Item = [u8; 8]>| values.flatten().collect::<Vec<u8>>();
+    let (n, m) = (mesh.points().len(), mesh.triangles().len());
     let mut blocks = Vec::new();
     let mut offset = 0;
     let mut array = |attributes: String, raw: Vec<u8>| {
@@ -314,7 +326,10 @@ fn write_vtp_to(
         .map(|data| {
             let (ty, raw) = match data.values {
                 PointValues::U8(v) => ("UInt8", v.to_vec()),
-                PointValues::F64(v) => ("Float64", le(&mut v.iter().map(|x| x.to_le_bytes()))),
+                PointValues::F64(v) => (
+                    "Float64",
+                    le_bytes(v.len(), v.iter().map(|x| x.to_le_bytes())),
+                ),
             };
             array(format!("type=\"{ty}\" Name=\"{}\"", escape(data.name)), raw)
         })
@@ -322,17 +337,17 @@ fn write_vtp_to(
     let coordinates = mesh.points().iter().flat_map(|p| p.to_array());
     let points = array(
         "type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\"".into(),
-        le(&mut coordinates.map(f64::to_le_bytes)),
+        le_bytes(3 * n, coordinates.map(f64::to_le_bytes)),
     );
     let indices = mesh.triangles().iter().flatten().map(|&v| v as i64);
     let connectivity = array(
         "type=\"Int64\" Name=\"connectivity\"".into(),
-        le(&mut indices.map(i64::to_le_bytes)),
+        le_bytes(3 * m, indices.map(i64::to_le_bytes)),
     );
-    let ends = (1..=mesh.triangles().len()).map(|t| 3 * t as i64);
+    let ends = (1..=m).map(|t| 3 * t as i64);
     let offsets = array(
         "type=\"Int64\" Name=\"offsets\"".into(),
-        le(&mut ends.map(i64::to_le_bytes)),
+        le_bytes(m, ends.map(i64::to_le_bytes)),
     );
     let compressor = if compress {
         " compressor=\"vtkZLibDataCompressor\""
@@ -344,10 +359,8 @@ fn write_vtp_to(
         "<?xml version=\"1.0\"?>\n\
          <VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" \
          header_type=\"UInt64\"{compressor}>\n  <PolyData>\n    \
-         <Piece NumberOfPoints=\"{}\" NumberOfVerts=\"0\" NumberOfLines=\"0\" \
-         NumberOfStrips=\"0\" NumberOfPolys=\"{}\">\n      <PointData>\n",
-        mesh.points().len(),
-        mesh.triangles().len()
+         <Piece NumberOfPoints=\"{n}\" NumberOfVerts=\"0\" NumberOfLines=\"0\" \
+         NumberOfStrips=\"0\" NumberOfPolys=\"{m}\">\n      <PointData>\n"
     )?;
     for tag in point_arrays {
         writeln!(w, "        {tag}")?;
@@ -399,7 +412,30 @@ mod tests {
         for compression in [Compression::None, Compression::Zlib] {
             let bytes = to_bytes(&mesh, &data, compression);
             assert_eq!(parse_vtp(&bytes).unwrap(), mesh, "{compression:?}");
+            let empty = TriMesh::default();
+            assert_eq!(
+                parse_vtp(&to_bytes(&empty, &[], compression)).unwrap(),
+                empty
+            );
         }
+    }
+
+    #[test]
+    fn compressed_output_and_reading_do_not_depend_on_the_thread_count() {
+        let mesh = icosphere(DVec3::ZERO, 1.0, 5);
+        let run = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let bytes = to_bytes(&mesh, &[], Compression::Zlib);
+                let back = parse_vtp(&bytes).unwrap();
+                (bytes, back)
+            })
+        };
+        let (one, two) = (run(1), run(2));
+        assert!(one.0 == two.0 && one.1 == two.1 && one.1 == mesh);
     }
 
     /// A VTK XML file with `arrays` (xml, raw little-endian bytes) inline as base64, the header
@@ -578,6 +614,7 @@ mod tests {
             (vti("0 1 0 0 0 0", " Scalars=\"v\"", "1"), "truncated"),
             (vti("0 -1 0 0 0 0", "", "1 2"), "extent"),
             (vti("0 1 0 0", "", "1 2"), "6 numbers"),
+            (vti("0 4e9 0 4e9 0 4e9", "", "1 2"), "too large"),
             (
                 vti("0 1 0 0 0 0", " Scalars=\"w\"", "1 2"),
                 "no scalar array",

@@ -12,6 +12,7 @@ use std::io::Read;
 
 use base64::engine::general_purpose::STANDARD;
 use base64::Engine;
+use rayon::prelude::*;
 
 use super::scan::{self, Cursor, Encoding, NumType};
 use super::xml::Element;
@@ -267,28 +268,29 @@ impl<'a> Storage<'a> {
                 )
             })?;
         let all = source.prefix(end)?;
+        let starts: Vec<usize> = sizes
+            .iter()
+            .scan(header_len, |at, &size| {
+                *at += size;
+                Some(*at - size)
+            })
+            .collect();
+        // Blocks inflate independently; errors are reported for the first bad block in order.
+        let inflated: Vec<Result<Vec<u8>>> = (0..blocks)
+            .into_par_iter()
+            .map(|b| {
+                let expected = if b + 1 == blocks && last_size != 0 {
+                    last_size
+                } else {
+                    block_size
+                };
+                inflate(&all[starts[b]..starts[b] + sizes[b]], expected)
+                    .map_err(|e| e.context(format!("compressed block {b}")))
+            })
+            .collect();
         let mut out = Vec::new();
-        let mut at = header_len;
-        for (b, &compressed) in sizes.iter().enumerate() {
-            let expected = if b + 1 == blocks && last_size != 0 {
-                last_size
-            } else {
-                block_size
-            };
-            let before = out.len();
-            // Reading at most one byte more than announced bounds the output by the header,
-            // whatever the compressed stream holds.
-            flate2::read::ZlibDecoder::new(&all[at..at + compressed])
-                .take((expected as u64).saturating_add(1))
-                .read_to_end(&mut out)
-                .map_err(|e| Error::format(format!("compressed block {b}: {e}")))?;
-            if out.len() - before != expected {
-                return Err(Error::format(format!(
-                    "compressed block {b} inflates to {} bytes, not the {expected} of its header",
-                    out.len() - before
-                )));
-            }
-            at += compressed;
+        for block in inflated {
+            out.extend_from_slice(&block?);
         }
         Ok(out)
     }
@@ -348,6 +350,24 @@ impl Array<'_> {
     }
 }
 
+/// A zlib stream that must inflate to exactly `expected` bytes.
+fn inflate(compressed: &[u8], expected: usize) -> Result<Vec<u8>> {
+    let mut out = Vec::new();
+    // Reading at most one byte more than announced bounds the output by the header, whatever
+    // the compressed stream holds.
+    flate2::read::ZlibDecoder::new(compressed)
+        .take((expected as u64).saturating_add(1))
+        .read_to_end(&mut out)
+        .map_err(|e| Error::format(e.to_string()))?;
+    if out.len() != expected {
+        return Err(Error::format(format!(
+            "inflates to {} bytes, not the {expected} of its header",
+            out.len()
+        )));
+    }
+    Ok(out)
+}
+
 /// `raw` as an appended binary block with a UInt64 header, zlib-compressed in 32 KiB blocks
 /// (VTK's default block size) when `compress`.
 pub(crate) fn encode(raw: &[u8], compress: bool) -> Vec<u8> {
@@ -358,8 +378,9 @@ pub(crate) fn encode(raw: &[u8], compress: bool) -> Vec<u8> {
         return out;
     }
     const BLOCK: usize = 1 << 15;
+    // Blocks are independent, so compressing them in parallel gives the same bytes.
     let blocks: Vec<Vec<u8>> = raw
-        .chunks(BLOCK)
+        .par_chunks(BLOCK)
         .map(|chunk| {
             let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::fast());
             std::io::Write::write_all(&mut z, chunk).expect("writing to a Vec cannot fail");
