@@ -9,8 +9,10 @@ use crate::mesh::TriMesh;
 /// A vertex index read from a file as a number. Every integer type the formats use converts to
 /// f64 exactly in the u32 range, so out-of-range and fractional values are caught here.
 pub(crate) fn index(value: f64) -> Result<u32> {
-    if value >= 0.0 && value <= u32::MAX as f64 && value.fract() == 0.0 {
-        Ok(value as u32)
+    // `as` saturates, so the round trip is exact only for integers in range (not NaN).
+    let index = value as u32;
+    if index as f64 == value {
+        Ok(index)
     } else {
         Err(Error::format(format!(
             "vertex index {value} is not an index of the 32-bit range"

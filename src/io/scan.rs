@@ -192,6 +192,38 @@ impl NumType {
         }
     }
 
+    /// Every value of `bytes`, whose length is a multiple of `size()`.
+    pub fn decode_all(self, bytes: &[u8], big_endian: bool) -> Vec<f64> {
+        // One loop per type, so the type is not matched again for every value.
+        macro_rules! all {
+            ($t:ty) => {
+                bytes
+                    .chunks_exact(std::mem::size_of::<$t>())
+                    .map(|b| {
+                        let a = array(b);
+                        (if big_endian {
+                            <$t>::from_be_bytes(a)
+                        } else {
+                            <$t>::from_le_bytes(a)
+                        }) as f64
+                    })
+                    .collect()
+            };
+        }
+        match self {
+            NumType::I8 => all!(i8),
+            NumType::U8 => all!(u8),
+            NumType::I16 => all!(i16),
+            NumType::U16 => all!(u16),
+            NumType::I32 => all!(i32),
+            NumType::U32 => all!(u32),
+            NumType::I64 => all!(i64),
+            NumType::U64 => all!(u64),
+            NumType::F32 => all!(f32),
+            NumType::F64 => all!(f64),
+        }
+    }
+
     /// The voxel type with the same layout, if the library has one.
     pub fn scalar_type(self) -> Option<ScalarType> {
         Some(match self {
@@ -244,10 +276,7 @@ pub(crate) fn numbers(
         Encoding::Binary { big_endian } => {
             cursor.check_room(count, ty.size(), what)?;
             let bytes = cursor.take(count * ty.size())?;
-            Ok(bytes
-                .chunks_exact(ty.size())
-                .map(|b| ty.decode(b, big_endian))
-                .collect())
+            Ok(ty.decode_all(bytes, big_endian))
         }
     }
 }
@@ -369,6 +398,12 @@ mod tests {
             assert_eq!(ty.decode(&bytes_le, false), value);
             let be: Vec<u8> = bytes_le.iter().rev().copied().collect();
             assert_eq!(ty.decode(&be, true), value);
+            let two_le = [&bytes_le[..], &bytes_le[..]].concat();
+            assert_eq!(ty.decode_all(&two_le, false), [value, value]);
+            assert_eq!(
+                ty.decode_all(&[&be[..], &be[..]].concat(), true),
+                [value, value]
+            );
         }
     }
 }

@@ -312,13 +312,13 @@ fn write_vtp_to(
 ) -> std::io::Result<()> {
     let compress = compression == Compression::Zlib;
     let (n, m) = (mesh.points().len(), mesh.triangles().len());
-    let mut blocks = Vec::new();
+    let mut appended = Vec::new();
     let mut offset = 0;
     let mut array = |attributes: String, raw: Vec<u8>| {
-        let block = encode(&raw, compress);
+        let pieces = encode(raw, compress);
         let tag = format!("<DataArray {attributes} format=\"appended\" offset=\"{offset}\"/>");
-        offset += block.len();
-        blocks.push(block);
+        offset += pieces.iter().map(Vec::len).sum::<usize>();
+        appended.extend(pieces);
         tag
     };
     let point_arrays: Vec<String> = point_data
@@ -371,7 +371,7 @@ fn write_vtp_to(
          {connectivity}\n        {offsets}\n      </Polys>\n    </Piece>\n  </PolyData>\n  \
          <AppendedData encoding=\"raw\">\n   _"
     )?;
-    for block in &blocks {
+    for block in &appended {
         w.write_all(block)?;
     }
     write!(w, "\n  </AppendedData>\n</VTKFile>\n")

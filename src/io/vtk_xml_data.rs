@@ -47,7 +47,8 @@ pub(crate) struct Array<'a> {
 #[derive(Debug)]
 enum Payload<'a> {
     Text(&'a [u8]),
-    Bytes(Vec<u8>),
+    /// Borrowed from the file when stored raw and uncompressed.
+    Bytes(Cow<'a, [u8]>),
 }
 
 pub(crate) fn num_type(name: &str) -> Result<NumType> {
@@ -76,7 +77,7 @@ enum Source<'a> {
     Base64(Cow<'a, [u8]>),
 }
 
-impl Source<'_> {
+impl<'a> Source<'a> {
     /// At most this many bytes can be decoded.
     fn capacity(&self) -> usize {
         match self {
@@ -86,10 +87,10 @@ impl Source<'_> {
     }
 
     /// The first `n` decoded bytes.
-    fn prefix(&self, n: usize) -> Result<Cow<'_, [u8]>> {
-        match self {
+    fn prefix(&self, n: usize) -> Result<Cow<'a, [u8]>> {
+        match *self {
             Source::Raw(bytes) => bytes.get(..n).map(Cow::Borrowed).ok_or_else(scan::eof),
-            Source::Base64(text) => decode_base64_prefix(text, n).map(Cow::Owned),
+            Source::Base64(ref text) => decode_base64_prefix(text, n).map(Cow::Owned),
         }
     }
 }
@@ -230,7 +231,7 @@ impl<'a> Storage<'a> {
     }
 
     /// The data bytes of one binary block, decompressed.
-    fn block(&self, source: &Source) -> Result<Vec<u8>> {
+    fn block(&self, source: &Source<'a>) -> Result<Cow<'a, [u8]>> {
         let size = self.header.size();
         let too_big = |what: &str, n: usize| {
             Error::format(format!(
@@ -243,7 +244,13 @@ impl<'a> Storage<'a> {
             let n = self.word(&source.prefix(size)?, 0);
             let end = n.checked_add(size).filter(|&e| e <= source.capacity());
             let end = end.ok_or_else(|| too_big("bytes", n))?;
-            return Ok(source.prefix(end)?[size..].to_vec());
+            return Ok(match source.prefix(end)? {
+                Cow::Borrowed(all) => Cow::Borrowed(&all[size..]),
+                Cow::Owned(mut all) => {
+                    all.drain(..size);
+                    Cow::Owned(all)
+                }
+            });
         }
         let head = source.prefix(3 * size)?;
         let (blocks, block_size, last_size) = (
@@ -292,7 +299,7 @@ impl<'a> Storage<'a> {
         for block in inflated {
             out.extend_from_slice(&block?);
         }
-        Ok(out)
+        Ok(Cow::Owned(out))
     }
 }
 
@@ -368,14 +375,12 @@ fn inflate(compressed: &[u8], expected: usize) -> Result<Vec<u8>> {
     Ok(out)
 }
 
-/// `raw` as an appended binary block with a UInt64 header, zlib-compressed in 32 KiB blocks
-/// (VTK's default block size) when `compress`.
-pub(crate) fn encode(raw: &[u8], compress: bool) -> Vec<u8> {
+/// `raw` as the pieces of an appended binary block, to be written one after the other: its
+/// UInt64 header, then its data, zlib-compressed in 32 KiB blocks (VTK's default block size)
+/// when `compress`. Uncompressed data is moved, not copied.
+pub(crate) fn encode(raw: Vec<u8>, compress: bool) -> Vec<Vec<u8>> {
     if !compress {
-        let mut out = Vec::with_capacity(8 + raw.len());
-        out.extend((raw.len() as u64).to_le_bytes());
-        out.extend(raw);
-        return out;
+        return vec![(raw.len() as u64).to_le_bytes().to_vec(), raw];
     }
     const BLOCK: usize = 1 << 15;
     // Blocks are independent, so compressing them in parallel gives the same bytes.
@@ -387,15 +392,11 @@ pub(crate) fn encode(raw: &[u8], compress: bool) -> Vec<u8> {
             z.finish().expect("writing to a Vec cannot fail")
         })
         .collect();
-    let mut out = Vec::new();
-    for word in [blocks.len(), BLOCK, raw.len() % BLOCK] {
-        out.extend((word as u64).to_le_bytes());
-    }
-    for block in &blocks {
-        out.extend((block.len() as u64).to_le_bytes());
-    }
-    for block in &blocks {
-        out.extend(block);
-    }
-    out
+    let sizes = blocks.iter().map(Vec::len);
+    let header = [blocks.len(), BLOCK, raw.len() % BLOCK]
+        .into_iter()
+        .chain(sizes)
+        .flat_map(|word| (word as u64).to_le_bytes())
+        .collect();
+    std::iter::once(header).chain(blocks).collect()
 }
