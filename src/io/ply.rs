@@ -216,7 +216,12 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<TriMesh> {
             continue;
         }
         let name = String::from_utf8_lossy(element.name);
-        cursor.check_room(element.count, min_instance_bytes(element, encoding), &name)?;
+        let instances = format!("{name} elements");
+        cursor.check_room(
+            element.count,
+            min_instance_bytes(element, encoding),
+            &instances,
+        )?;
         let position = |axis: &[u8]| element.properties.iter().position(|p| p.name == axis);
         let at = |i: usize, e: Error| e.context(format!("{name} {i} of {}", element.count));
         match element.name {

@@ -225,7 +225,7 @@ fn skip_attribute(c: &mut Cursor, encoding: Encoding, keyword: &[u8], tuples: us
         }
     };
     end_line(c, encoding);
-    let what = String::from_utf8_lossy(keyword);
+    let what = format!("{} values", String::from_utf8_lossy(keyword));
     scan::numbers(c, values.unwrap_or(usize::MAX), ty, encoding, &what)?;
     Ok(())
 }
@@ -350,7 +350,7 @@ fn cells(c: &mut Cursor, encoding: Encoding, mut cell: impl FnMut(&[u32])) -> Re
         }
         let ty = num_type(c.expect_word()?)?;
         end_line(c, encoding);
-        let connectivity = scan::numbers(c, size, ty, encoding, "cell connectivity")?;
+        let connectivity = scan::numbers(c, size, ty, encoding, "cell connectivity entries")?;
         if offsets.first().is_some_and(|&o| o != 0.0) {
             return Err(Error::format("the first cell offset must be 0"));
         }
@@ -366,7 +366,7 @@ fn cells(c: &mut Cursor, encoding: Encoding, mut cell: impl FnMut(&[u32])) -> Re
         }
     } else {
         end_line(c, encoding);
-        let values = scan::numbers(c, size, NumType::I32, encoding, "cell array")?;
+        let values = scan::numbers(c, size, NumType::I32, encoding, "cell array entries")?;
         let mut at = 0;
         for i in 0..cells {
             let n = values
@@ -404,7 +404,7 @@ pub(crate) fn parse_mesh(bytes: &[u8]) -> Result<TriMesh> {
                 let ty = num_type(c.expect_word()?)?;
                 end_line(&mut c, encoding);
                 let values = n.saturating_mul(3);
-                let xyz = scan::numbers(&mut c, values, ty, encoding, "points")?;
+                let xyz = scan::numbers(&mut c, values, ty, encoding, "point coordinates")?;
                 points = xyz
                     .chunks_exact(3)
                     .map(|p| DVec3::new(p[0], p[1], p[2]))

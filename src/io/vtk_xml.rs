@@ -110,7 +110,7 @@ fn count_attribute(element: &Element, name: &str) -> Result<usize> {
     })
 }
 
-/// `n` numbers of an attribute, or `default` when it is absent.
+/// The `N` numbers of an attribute, or `default` when it is absent.
 fn numbers_attribute<const N: usize>(
     element: &Element,
     name: &str,

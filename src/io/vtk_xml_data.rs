@@ -21,7 +21,7 @@ use crate::volume::{ScalarType, VoxelBuffer};
 
 /// Where appended arrays live: the bytes after the `_` marker of `<AppendedData>`.
 #[derive(Debug, Clone, Copy)]
-pub(crate) enum Appended<'a> {
+enum Appended<'a> {
     Raw(&'a [u8]),
     Base64(&'a [u8]),
 }
