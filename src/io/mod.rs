@@ -1,24 +1,45 @@
-//! File formats for volumes and meshes, chosen by file extension (feature `io`).
+//! File formats for volumes and meshes, chosen by file extension (feature `io`): MetaImage,
+//! NRRD, NIfTI-1, legacy VTK and VTK XML images; VTK, VTP, PLY, STL, OBJ and OFF meshes.
 //!
-//! Every reader turns a corrupt or truncated file into an error that names the file and what is
-//! wrong; none of them panics or trusts a size it has not checked against the file.
+//! Every reader loads the whole file, checks each count it reads against the bytes that remain
+//! before allocating for it, and reports corrupt or truncated input as an error of kind
+//! `Format` that names the file and the place, never as a panic. Images are in ITK's LPS world
+//! space (SPEC "Coordinates").
 
 mod compression;
+mod files;
+mod point_data;
+mod polygons;
+mod scan;
+#[cfg(test)]
+mod test_images;
+#[cfg(test)]
+mod test_support;
+mod text_header;
+mod vtk_xml_data;
+mod xml;
+
 pub mod metaimage;
 pub mod nifti;
 pub mod nrrd;
-#[cfg(test)]
-mod test_images;
-mod text_header;
+pub mod obj;
+pub mod ply;
+pub mod stl;
+pub mod vtk_legacy;
+pub mod vtk_xml;
 
 use std::path::Path;
 
-use crate::{Error, Image, Result};
+use crate::{Error, Image, Result, TriMesh};
+pub use point_data::{PointData, PointValues};
 
 /// The volume extensions [`read_image`] understands.
-pub const IMAGE_READ_FORMATS: &str = ".mha, .mhd, .nrrd, .nhdr, .nii, .nii.gz";
+pub const IMAGE_READ_FORMATS: &str = ".mha, .mhd, .nrrd, .nhdr, .nii, .nii.gz, .vti, .vtk";
 /// The volume extensions [`write_image`] understands.
 pub const IMAGE_WRITE_FORMATS: &str = ".mha, .nrrd, .nii.gz";
+/// The mesh extensions [`read_mesh`] and [`write_mesh`] understand.
+pub const MESH_FORMATS: &str = ".vtp, .vtk, .ply, .stl, .obj";
+
 /// The lower-case extension, with `.nii.gz` kept whole.
 fn extension(path: &Path) -> String {
     let name = path
@@ -46,6 +67,8 @@ pub fn read_image(path: &Path) -> Result<Image> {
         "mha" | "mhd" => metaimage::read(path),
         "nrrd" | "nhdr" => nrrd::read(path),
         "nii" | "nii.gz" => nifti::read(path),
+        "vti" => vtk_xml::read_vti(path),
+        "vtk" => vtk_legacy::read_image(path),
         _ => Err(unsupported(path, "volume", IMAGE_READ_FORMATS)),
     }
 }
@@ -57,5 +80,30 @@ pub fn write_image(path: &Path, image: &Image) -> Result<()> {
         "nrrd" => nrrd::write(path, image),
         "nii.gz" => nifti::write(path, image),
         _ => Err(unsupported(path, "volume", IMAGE_WRITE_FORMATS)),
+    }
+}
+
+/// Reads a triangle mesh (polygons are fan-triangulated); the format follows the extension.
+pub fn read_mesh(path: &Path) -> Result<TriMesh> {
+    match extension(path).as_str() {
+        "vtp" => vtk_xml::read_vtp(path),
+        "vtk" => vtk_legacy::read_mesh(path),
+        "ply" => ply::read(path),
+        "stl" => stl::read(path),
+        "obj" => obj::read(path),
+        _ => Err(unsupported(path, "mesh", MESH_FORMATS)),
+    }
+}
+
+/// Writes a mesh with optional per-point arrays (kept by .vtp, .vtk and .ply; the other formats
+/// have no place for them).
+pub fn write_mesh(path: &Path, mesh: &TriMesh, point_data: &[PointData]) -> Result<()> {
+    match extension(path).as_str() {
+        "vtp" => vtk_xml::write_vtp(path, mesh, point_data),
+        "vtk" => vtk_legacy::write_mesh(path, mesh, point_data),
+        "ply" => ply::write(path, mesh, point_data),
+        "stl" => stl::write(path, mesh, point_data),
+        "obj" => obj::write(path, mesh, point_data),
+        _ => Err(unsupported(path, "mesh", MESH_FORMATS)),
     }
 }
