@@ -5,6 +5,7 @@
 //! only owns the data and its invariants: every index is in range and every point finite.
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use glam::DVec3;
 
@@ -46,7 +47,8 @@ impl TriMesh {
     /// Builds a welded mesh from a triangle soup (three points per triangle, as STL stores
     /// them): bit-identical points become one vertex. Negative and positive zero are merged.
     pub fn from_soup(corners: &[[DVec3; 3]]) -> Result<Self> {
-        let mut index: HashMap<[u64; 3], u32> = HashMap::with_capacity(corners.len() / 2 + 3);
+        let mut index: HashMap<[u64; 3], u32, BuildHasherDefault<BitsHasher>> =
+            HashMap::with_capacity_and_hasher(corners.len() / 2 + 3, Default::default());
         let mut points = Vec::with_capacity(corners.len() / 2 + 3);
         let mut triangles = Vec::with_capacity(corners.len());
         for tri in corners {
@@ -146,6 +148,30 @@ impl TriMesh {
             *p = f(*p);
         }
         TriMesh::new(self.points, self.triangles)
+    }
+}
+
+/// Welding hashes the bit patterns of coordinates, which come from files, not from an
+/// adversary: a multiply–rotate mix (as in rustc's FxHash) is enough and several times faster
+/// than the default SipHash.
+#[derive(Default)]
+struct BitsHasher(u64);
+
+impl Hasher for BitsHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+    }
+
+    fn write_u64(&mut self, word: u64) {
+        self.0 = (self.0.rotate_left(5) ^ word).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
     }
 }
 
