@@ -1,0 +1,194 @@
+//! The balloon's per-vertex forces (paper, section 2): elastic springs along the edges, bending
+//! on the dihedral angle of each edge, and inflation along the vertex normal driven by the
+//! intensity under the vertex.
+//!
+//! Forces are displacements in units of the target edge length per step; the integrator
+//! scales them and clamps each step to a fraction of a voxel.
+//!
+//! - **Elastic**: each edge is a zero-length spring, so a vertex is pulled towards the centroid
+//!   of its neighbours (the umbrella operator). Only the tangential part is kept: the normal
+//!   part is proportional to curvature and would shrink the balloon away from the border,
+//!   biasing the result inward; smoothness across the surface is the bending force's job.
+//! - **Bending**: on an edge a–b with opposite vertices c and d, the signed dihedral angle θ
+//!   (positive on a ridge) pushes c and d along their triangles' normals by θ and a, b back
+//!   by half the sum, so the edge flattens and the forces cancel: a sphere, whose dihedral
+//!   angles are all equal, feels no net bending, but a dent or a spike does.
+//! - **Inflation**: along the normal, with magnitude `1 − ½(d/tol)²` where `d` is the distance
+//!   of the trilinear intensity from the reference, so it slows near the border but never
+//!   stalls before it; beyond the tolerance the sign reverses (the paper's containing force).
+//!   The integrator freezes a vertex on the exact border crossing.
+//!
+//! Elastic and bending terms are accumulated over the edges sequentially, in slot order, so
+//! the sums are the same whatever the thread count; the per-vertex parts run in parallel.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::surface::Surface;
+
+/// Relative weights of the three forces.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForceWeights {
+    pub elastic: f64,
+    pub bending: f64,
+    pub inflation: f64,
+}
+
+impl Default for ForceWeights {
+    fn default() -> Self {
+        ForceWeights {
+            elastic: 0.4,
+            bending: 0.3,
+            inflation: 1.0,
+        }
+    }
+}
+
+/// Where a sample is relative to the structure: inside the tolerance band or not.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct IntensityWindow {
+    pub reference: f64,
+    pub tolerance: f64,
+}
+
+impl IntensityWindow {
+    /// Inflation speed for an intensity: positive inside the window, negative outside, NaN
+    /// (unknown intensity) counts as outside.
+    pub fn inflation(&self, intensity: f64) -> f64 {
+        let d = (intensity - self.reference).abs() / self.tolerance;
+        if d <= 1.0 {
+            1.0 - 0.5 * d * d
+        } else {
+            -0.5
+        }
+    }
+
+    pub fn contains(&self, intensity: f64) -> bool {
+        (intensity - self.reference).abs() <= self.tolerance
+    }
+}
+
+/// Elastic (tangential umbrella) plus bending forces of every vertex slot, in units of the
+/// edge length `scale`. `normals` are the unit vertex normals by slot.
+pub fn internal_forces(
+    surface: &Surface,
+    normals: &[DVec3],
+    weights: &ForceWeights,
+    scale: f64,
+    forces: &mut Vec<DVec3>,
+) {
+    let slots = surface.vertex_slots();
+    let positions = surface.positions();
+    let mut neighbour_sum = vec![DVec3::ZERO; slots];
+    let mut valence = vec![0u32; slots];
+    let mut bending = vec![DVec3::ZERO; slots];
+    for e in surface.edges() {
+        let [a, b, c, d] = [e.a, e.b, e.c, e.d].map(|v| v as usize);
+        neighbour_sum[a] += positions[b];
+        neighbour_sum[b] += positions[a];
+        valence[a] += 1;
+        valence[b] += 1;
+        let (pa, pb, pc, pd) = (positions[a], positions[b], positions[c], positions[d]);
+        let n1 = (pb - pa).cross(pc - pa).normalize_or_zero();
+        let n2 = (pa - pb).cross(pd - pb).normalize_or_zero();
+        let theta = dihedral(n1, n2, pc - pa);
+        let push_c = theta * n1;
+        let push_d = theta * n2;
+        bending[c] += push_c;
+        bending[d] += push_d;
+        bending[a] -= 0.5 * (push_c + push_d);
+        bending[b] -= 0.5 * (push_c + push_d);
+    }
+    forces.clear();
+    forces.resize(slots, DVec3::ZERO);
+    forces
+        .par_iter_mut()
+        .enumerate()
+        .with_min_len(1024)
+        .for_each(|(v, f)| {
+            if valence[v] == 0 {
+                return;
+            }
+            let umbrella = neighbour_sum[v] / valence[v] as f64 - positions[v];
+            let n = normals[v];
+            let tangential = umbrella - n * umbrella.dot(n);
+            *f = weights.elastic * tangential / scale + weights.bending * bending[v];
+        });
+}
+
+/// Signed angle between the normals of two triangles sharing an edge, given the vector from the
+/// edge to the first triangle's far corner: positive
+/// where the surface bends away from its normal (a ridge), negative in a valley.
+fn dihedral(n1: DVec3, n2: DVec3, to_c: DVec3) -> f64 {
+    let angle = n1.dot(n2).clamp(-1.0, 1.0).acos();
+    // On a ridge, the second triangle's normal leans away from the first triangle's far corner.
+    if n2.dot(to_c) > 0.0 {
+        -angle
+    } else {
+        angle
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn inflation_slows_towards_the_border_and_reverses_beyond() {
+        let w = IntensityWindow {
+            reference: 1000.0,
+            tolerance: 400.0,
+        };
+        assert_eq!(w.inflation(1000.0), 1.0);
+        assert!((w.inflation(600.0) - 0.5).abs() < 1e-12);
+        assert!(w.inflation(599.0) < 0.0);
+        assert!(w.inflation(f64::NAN) < 0.0);
+        assert!(w.contains(1400.0) && !w.contains(1400.5));
+    }
+
+    #[test]
+    fn a_sphere_feels_no_net_bending_and_no_elastic_shrinking() {
+        let s = Surface::icosphere(DVec3::ZERO, 5.0, 3).unwrap();
+        let normals = s.vertex_normals();
+        let mut f = Vec::new();
+        internal_forces(&s, &normals, &ForceWeights::default(), 1.0, &mut f);
+        for v in s.live_vertices() {
+            let normal_part = f[v as usize].dot(normals[v as usize]);
+            // Icosphere vertices are not all alike (valence 5 and 6), so allow a small residue.
+            assert!(normal_part.abs() < 0.02, "vertex {v}: {normal_part}");
+        }
+    }
+
+    #[test]
+    fn a_spike_is_pushed_back_and_a_dent_pushed_out() {
+        let mut s = Surface::icosphere(DVec3::ZERO, 5.0, 3).unwrap();
+        let v = 0usize;
+        let out = s.positions()[v].normalize();
+        s.positions_mut()[v] += out * 1.5;
+        let mut f = Vec::new();
+        internal_forces(&s, &s.vertex_normals(), &ForceWeights::default(), 1.0, &mut f);
+        assert!(f[v].dot(out) < -0.1, "spike: {}", f[v].dot(out));
+
+        s.positions_mut()[v] -= out * 3.0;
+        internal_forces(&s, &s.vertex_normals(), &ForceWeights::default(), 1.0, &mut f);
+        assert!(f[v].dot(out) > 0.1, "dent: {}", f[v].dot(out));
+    }
+
+    #[test]
+    fn dihedral_sign_is_positive_on_a_ridge() {
+        // Edge along x; triangle 1 on y > 0 and triangle 2 on y < 0, both sloping down (z < 0):
+        // a roof ridge seen from above.
+        let (a, b) = (DVec3::ZERO, DVec3::X);
+        let c = DVec3::new(0.5, 1.0, -1.0);
+        let d = DVec3::new(0.5, -1.0, -1.0);
+        let n1 = (b - a).cross(c - a).normalize();
+        let n2 = (a - b).cross(d - b).normalize();
+        assert!(n1.z > 0.0 && n2.z > 0.0);
+        assert!(dihedral(n1, n2, c - a) > 0.0);
+        let c = DVec3::new(0.5, 1.0, 1.0);
+        let d = DVec3::new(0.5, -1.0, 1.0);
+        let n1 = (b - a).cross(c - a).normalize();
+        let n2 = (a - b).cross(d - b).normalize();
+        assert!(dihedral(n1, n2, c - a) < 0.0);
+    }
+}
