@@ -8,6 +8,7 @@
 
 pub mod error;
 pub mod geometry;
+pub mod marching_cubes;
 pub mod mesh;
 pub mod volume;
 
