@@ -1047,7 +1047,7 @@ mod tests {
         // Cubes around samples exactly at the level, in every combination the 3×3×3
         // reproduction belongs to: values -1, 0 (= level) and 1, the centre at the level.
         let mut rng = Rng(8116);
-        for _ in 0..2000 {
+        for _ in 0..500 {
             let mut data: Vec<f64> = (0..27).map(|_| rng.below(3) as f64 - 1.0).collect();
             data[13] = 0.0;
             let (data, dims) = padded(&data, [3, 3, 3], -1.0);
@@ -1111,10 +1111,21 @@ mod tests {
             let mesh = extract(&data, dims, Geometry::identity(), 0.5);
             assert_eq!(closed_euler(&mesh) % 2, 0);
         }
-        // Two cubes sharing a face along each axis: all 2^12 sign patterns of their samples.
-        for dims in [[3, 2, 2], [2, 3, 2], [2, 2, 3]] {
+        // Two cubes sharing a face along each axis, with every sign pattern of their samples
+        // that makes the shared face ambiguous (the only faces with a choice to agree on).
+        for (axis, dims) in [[3, 2, 2], [2, 3, 2], [2, 2, 3]].into_iter().enumerate() {
+            let face: Vec<usize> = (0..12)
+                .filter(|&s| {
+                    [s % dims[0], s / dims[0] % dims[1], s / (dims[0] * dims[1])][axis] == 1
+                })
+                .collect();
             for pattern in 0..1u32 << 12 {
-                let data: Vec<f64> = (0..12).map(|s| f64::from((pattern >> s) & 1)).collect();
+                let sign = |s: usize| (pattern >> s) & 1;
+                let [a, b, c, d] = [0, 1, 2, 3].map(|n| sign(face[n]));
+                if !(a == d && b == c && a != b) {
+                    continue;
+                }
+                let data: Vec<f64> = (0..12).map(|s| f64::from(sign(s))).collect();
                 let (data, dims) = padded(&data, dims, 0.0);
                 closed_euler(&extract(&data, dims, Geometry::identity(), 0.5));
             }
