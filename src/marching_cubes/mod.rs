@@ -7,16 +7,22 @@
 //! # Passes
 //! 1. Classify: every voxel becomes one bit, inside iff `value >= level` (VTK's test), compared
 //!    in the voxel type so that f32 rows vectorise.
-//! 2. Count, per voxel row (fixed j, k): the intersected i-, j- and k-edges that start in the row
-//!    and the triangles of the row of cubes that starts there, from the bits alone.
+//! 2. Count, per voxel row (fixed j, k): the intersected i-, j- and k-edges that start in the row,
+//!    and the active cubes (kept with their case) and triangles of the row of cubes starting
+//!    there, from the bits alone.
 //! 3. Prefix sums give each row its first vertex and first triangle.
 //! 4. Emit, in parallel over rows: one vertex per intersected edge, at
 //!    `t = (level − s0) / (s1 − s0)` from the edge's lower-index end (vtkFlyingEdges3D's formula,
-//!    see [`edge_parameter`]) in index space, mapped to world once; and each cube's triangles from the case table, with
-//!    vertex ids from counters that run along the row.
+//!    with `s1 − s0` rounded to f32 for f32 voxels as VTK does), in index space, mapped to world
+//!    once; and each active cube's triangles from the case table, with vertex ids from counters
+//!    that run along the row.
 //!
 //! Vertices are numbered row by row (j fastest, then k); within a row come the vertices of the
-//! i-edges, then of the j-edges, then of the k-edges, each by increasing i.
+//! i-edges, then of the j-edges, then of the k-edges, each by increasing i. Rows are read in
+//! place when the i-stride is 1 and gathered otherwise (slower, same result): the mesh depends
+//! only on the samples at each (i, j, k), not on the memory layout. Mirroring the index axes
+//! (and the geometry with them) gives the same vertices but may triangulate non-planar cubes
+//! differently, because the case table is not mirror-symmetric.
 //!
 //! # What the output guarantees
 //! - Welded: one vertex per intersected grid edge, shared by every triangle that uses the edge.
@@ -31,9 +37,9 @@
 //! - Samples equal to the level are inside; the combinatorics are exactly those of the level
 //!   lowered by an infinitesimal, so the mesh stays closed and manifold (scikit-image issue #8116
 //!   opened holes here by classifying such samples differently in neighbouring cubes). The price
-//!   is geometric: an edge from such a sample has its vertex exactly on the sample (t = 0 or 1),
-//!   so the vertices of all intersected edges at that sample coincide and some triangles have zero
-//!   area. They are kept apart, as VTK does, because merging them would pinch the surface into a
+//!   is geometric: an edge from such a sample has its vertex on the sample (t = 0 exactly, t = 1
+//!   up to the rounding of an f32 difference), so the vertices of all intersected edges at that
+//!   sample coincide and some triangles have zero area. They are kept apart, as VTK does, because merging them would pinch the surface into a
 //!   non-manifold one.
 //! - NaN samples are outside (they fail `>=`). Every vertex is finite and on its edge: an edge
 //!   with a NaN end, or with two infinite ends, gets its midpoint; an edge with one infinite end
