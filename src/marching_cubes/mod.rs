@@ -82,7 +82,7 @@ impl VoxelVisitor for Extract {
     type Output = Result<TriMesh>;
 
     fn visit<T: Scalar>(self, volume: &TypedVolume<'_, T>) -> Result<TriMesh> {
-        let Some(grid) = Grid::new(volume.dims()) else {
+        let Some(grid) = Grid::new(volume.dims())? else {
             return Ok(TriMesh::default());
         };
         // `value.to_f64() >= level` as a comparison in T: `from_f64` rounds to the nearest T, so
@@ -119,6 +119,9 @@ impl VoxelVisitor for Extract {
 /// balance, few enough that per-chunk set-up is negligible.
 const CHUNKS: usize = 256;
 
+/// The longest row along i whose counts fit in u32.
+const MAX_ROW: usize = (u32::MAX / 5) as usize;
+
 /// The voxel rows (fixed j, k) of a grid and their bit words.
 #[derive(Debug, Clone, Copy)]
 struct Grid {
@@ -131,13 +134,20 @@ struct Grid {
 
 impl Grid {
     /// `None` when the grid has no cubes.
-    fn new([nx, ny, nz]: [usize; 3]) -> Option<Grid> {
-        (nx >= 2 && ny >= 2 && nz >= 2).then_some(Grid {
+    fn new([nx, ny, nz]: [usize; 3]) -> Result<Option<Grid>> {
+        // Per-row counts are u32; a row of cubes has at most 5 triangles per cube.
+        if nx > MAX_ROW {
+            return Err(Error::invalid_volume(format!(
+                "rows of {nx} voxels along i are longer than marching cubes supports ({MAX_ROW}); \
+                 put a shorter axis first"
+            )));
+        }
+        Ok((nx >= 2 && ny >= 2 && nz >= 2).then_some(Grid {
             nx,
             ny,
             nz,
             words: nx.div_ceil(64),
-        })
+        }))
     }
 
     fn rows(&self) -> usize {
@@ -1404,6 +1414,16 @@ mod tests {
             assert_eq!(error.kind(), ErrorKind::InvalidArgument);
             assert!(error.message().contains("level"), "{error}");
         }
+    }
+
+    #[test]
+    fn rows_too_long_for_the_counts_are_an_error_not_a_panic() {
+        // One sample seen through zero strides: a huge grid without a huge buffer.
+        let data = [1u8];
+        let dims = [MAX_ROW + 1, 2, 2];
+        let view = TypedVolume::new(&data, 0, dims, [0, 0, 0], Geometry::identity()).unwrap();
+        let error = marching_cubes(&view.into(), 0.5).unwrap_err();
+        assert_eq!(error.kind(), ErrorKind::InvalidVolume);
     }
 
     #[test]
