@@ -62,8 +62,9 @@ use tables::{ADVANCE, SLOTS, SLOTS_FLIPPED, TRIANGLE_COUNT};
 /// The isosurface `value = level` of `volume`, in world millimetres, with normals towards
 /// increasing values. See the module documentation for the guarantees.
 ///
-/// Errors when `level` is not finite, or when the surface would need more than `u32::MAX`
-/// vertices.
+/// Errors (invalid argument) when `level` is not finite or the surface would need more than
+/// `u32::MAX` vertices, and (invalid volume) when rows along i are longer than 858,993,459
+/// samples.
 pub fn marching_cubes(volume: &Volume<'_>, level: f64) -> Result<TriMesh> {
     if !level.is_finite() {
         return Err(Error::invalid_argument(format!(
@@ -704,7 +705,7 @@ impl<T: Scalar> Emitter<'_, '_, T> {
     /// The triangles of the active cubes (`cases`, in increasing i) of the row of cubes starting
     /// at voxel row `row`.
     fn emit_triangles(&self, row: usize, cases: &[u8], out: &mut [MaybeUninit<[u32; 3]>]) {
-        if cases.is_empty() {
+        if cases.is_empty() && out.is_empty() {
             return;
         }
         let ny = self.grid.ny;
