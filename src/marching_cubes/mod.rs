@@ -250,8 +250,8 @@ fn classify_row<T: Scalar, const STRICT: bool>(values: &[T], threshold: T, out: 
 }
 
 /// 64 inside tests as 64 bits. Deciding into bytes first lets the compiler vectorise the
-/// comparisons; one multiplication then gathers eight 0/1 bytes into eight bits (byte b of the
-/// product's top byte is bit b).
+/// comparisons; one multiplication then gathers eight 0/1 bytes into eight bits (the 0/1 of byte
+/// b lands on bit b of the product's top byte, without carries).
 #[inline(always)]
 fn pack_64<T: Scalar, const STRICT: bool>(values: &[T; 64], threshold: T) -> u64 {
     let mut inside = [0u8; 64];
@@ -267,7 +267,7 @@ fn pack_64<T: Scalar, const STRICT: bool>(values: &[T; 64], threshold: T) -> u64
         })
 }
 
-/// The `n` lowest bits set, for `n <= 64`.
+/// The `n` lowest bits set (all 64 when `n >= 64`).
 #[inline(always)]
 fn low_bits(n: usize) -> u64 {
     if n >= 64 {
