@@ -11,6 +11,7 @@ pub mod error;
 pub mod geometry;
 #[cfg(feature = "io")]
 pub mod io;
+pub mod marching_cubes;
 pub mod mesh;
 pub mod mesh_checks;
 pub mod phantom;

@@ -8,6 +8,7 @@ use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 
@@ -28,14 +29,18 @@ impl TriMesh {
                 points.len()
             )));
         }
-        if let Some(i) = points.iter().position(|p| !p.is_finite()) {
+        // Parallel because marching cubes hands over tens of millions of elements.
+        if let Some(i) = points.par_iter().position_first(|p| !p.is_finite()) {
             return Err(Error::invalid_mesh(format!(
                 "point {i} is {:?}; every point must be finite",
                 points[i]
             )));
         }
         let n = points.len() as u32;
-        if let Some(t) = triangles.iter().position(|t| t.iter().any(|&v| v >= n)) {
+        if let Some(t) = triangles
+            .par_iter()
+            .position_first(|t| t.iter().any(|&v| v >= n))
+        {
             return Err(Error::invalid_mesh(format!(
                 "triangle {t} is {:?} but the mesh has {n} points",
                 triangles[t]
