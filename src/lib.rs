@@ -6,6 +6,7 @@
 //! signed distance and mesh checks. Everything works on borrowed, strided volumes of any
 //! supported scalar type and produces meshes in world millimetres.
 
+pub mod balloon;
 pub mod closest_point;
 pub mod error;
 pub mod geometry;

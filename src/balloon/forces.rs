@@ -166,11 +166,23 @@ mod tests {
         let out = s.positions()[v].normalize();
         s.positions_mut()[v] += out * 1.5;
         let mut f = Vec::new();
-        internal_forces(&s, &s.vertex_normals(), &ForceWeights::default(), 1.0, &mut f);
+        internal_forces(
+            &s,
+            &s.vertex_normals(),
+            &ForceWeights::default(),
+            1.0,
+            &mut f,
+        );
         assert!(f[v].dot(out) < -0.1, "spike: {}", f[v].dot(out));
 
         s.positions_mut()[v] -= out * 3.0;
-        internal_forces(&s, &s.vertex_normals(), &ForceWeights::default(), 1.0, &mut f);
+        internal_forces(
+            &s,
+            &s.vertex_normals(),
+            &ForceWeights::default(),
+            1.0,
+            &mut f,
+        );
         assert!(f[v].dot(out) > 0.1, "dent: {}", f[v].dot(out));
     }
 

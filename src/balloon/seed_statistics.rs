@@ -51,7 +51,9 @@ pub fn estimate(volume: &Volume<'_>, seed: DVec3) -> Result<SeedStatistics> {
         )));
     }
     let (reference, spread) = neighbourhood(volume, index)?;
-    let threshold = (5.0 * 1.4826 * spread).max(0.01 * reference.abs()).max(f64::EPSILON);
+    let threshold = (5.0 * 1.4826 * spread)
+        .max(0.01 * reference.abs())
+        .max(f64::EPSILON);
     let step = 0.5 * geometry.min_spacing();
     let beyond = 2.0 * geometry.spacing().iter().copied().fold(0.0, f64::max);
 

@@ -1,0 +1,9 @@
+//! The balloon of the paper (section 2): a closed triangulated surface that starts as a small
+//! sphere at a seed and is inflated by per-vertex forces. `surface` holds its dynamic mesh — a
+//! half-edge structure whose edges are split when they grow too long and collapsed when they
+//! become too short, always staying a closed, oriented 2-manifold — on which the forces work.
+
+pub mod forces;
+mod remesh;
+pub mod seed_statistics;
+pub mod surface;
