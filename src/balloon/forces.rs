@@ -152,11 +152,17 @@ mod tests {
         let normals = s.vertex_normals();
         let mut f = Vec::new();
         internal_forces(&s, &normals, &ForceWeights::default(), 1.0, &mut f);
-        for v in s.live_vertices() {
-            let normal_part = f[v as usize].dot(normals[v as usize]);
-            // Icosphere vertices are not all alike (valence 5 and 6), so allow a small residue.
-            assert!(normal_part.abs() < 0.02, "vertex {v}: {normal_part}");
-        }
+        let normal_parts: Vec<f64> = s
+            .live_vertices()
+            .map(|v| f[v as usize].dot(normals[v as usize]))
+            .collect();
+        // Icosphere vertices are not all alike (valence 5 and 6), which leaves a residue of a
+        // few hundredths where a spike of one edge length (below) gets tenths; on average the
+        // sphere neither shrinks nor grows.
+        let worst = normal_parts.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let mean = normal_parts.iter().sum::<f64>() / normal_parts.len() as f64;
+        assert!(worst < 0.1, "worst {worst}");
+        assert!(mean.abs() < 0.005, "mean {mean}");
     }
 
     #[test]

@@ -4,10 +4,11 @@
 //!   the seed, with their median absolute deviation (MAD) as the local noise level.
 //! - **Surroundings**: 42 rays (the vertices of a once-subdivided icosahedron) leave the seed
 //!   in world space, sampled every half of the smallest spacing. A ray *exits* the structure at
-//!   the first of two consecutive samples further than `max(5 · 1.4826 · MAD, 1% of |reference|)`
-//!   from the reference; the surroundings' intensity on that ray is the sample 2 voxels
-//!   (largest spacing) beyond the exit. Rays that reach the volume's edge or 80 mm without
-//!   exiting are ignored; at least 8 must exit.
+//!   the first of two consecutive samples further than `max(3 · 1.4826 · MAD, 1% of |reference|)`
+//!   from the reference. The edge is where the profile is steepest (central differences over
+//!   one voxel, by the largest spacing) between one voxel before and three after the exit, and
+//!   the surroundings' intensity on that ray is the sample 2 voxels beyond the edge. Rays that
+//!   reach the volume's edge or 80 mm without exiting are ignored; at least 8 must exit.
 //! - **Tolerance**: half of |reference − median surroundings|, which puts the balloon's border
 //!   half-way between the structure and what surrounds it — where the partial-volume edge of
 //!   a blurred boundary lies (on the vmtk aorta, the reference surface sits at 1195 between a
@@ -51,11 +52,11 @@ pub fn estimate(volume: &Volume<'_>, seed: DVec3) -> Result<SeedStatistics> {
         )));
     }
     let (reference, spread) = neighbourhood(volume, index)?;
-    let threshold = (5.0 * 1.4826 * spread)
+    let threshold = (3.0 * 1.4826 * spread)
         .max(0.01 * reference.abs())
         .max(f64::EPSILON);
     let step = 0.5 * geometry.min_spacing();
-    let beyond = 2.0 * geometry.spacing().iter().copied().fold(0.0, f64::max);
+    let voxel = geometry.spacing().iter().copied().fold(0.0, f64::max);
 
     let mut outside: Vec<f64> = ray_directions()
         .into_iter()
@@ -64,9 +65,9 @@ pub fn estimate(volume: &Volume<'_>, seed: DVec3) -> Result<SeedStatistics> {
             let far = |v: f64| (v - reference).abs() > threshold;
             let mut t = step;
             while t < MAX_RAY_MM {
-                let here = sample(t)?;
-                if far(here) && far(sample(t + step)?) {
-                    return sample(t + beyond).filter(|v| v.is_finite());
+                if far(sample(t)?) && far(sample(t + step)?) {
+                    let edge = steepest(&sample, t - voxel, t + 3.0 * voxel, step, voxel)?;
+                    return sample(edge + 2.0 * voxel).filter(|v| v.is_finite());
                 }
                 t += step;
             }
@@ -91,6 +92,27 @@ pub fn estimate(volume: &Volume<'_>, seed: DVec3) -> Result<SeedStatistics> {
         tolerance,
         rays_exited: outside.len(),
     })
+}
+
+/// The position in `[from, to]` where `profile` changes fastest (central difference over `h`);
+/// `None` if the profile leaves the volume there.
+fn steepest(
+    profile: &impl Fn(f64) -> Option<f64>,
+    from: f64,
+    to: f64,
+    step: f64,
+    h: f64,
+) -> Option<f64> {
+    let mut best = (f64::NEG_INFINITY, from);
+    let mut t = from.max(h);
+    while t <= to {
+        let slope = (profile(t + h)? - profile(t - h)?).abs();
+        if slope > best.0 {
+            best = (slope, t);
+        }
+        t += step;
+    }
+    Some(best.1)
 }
 
 /// Median and MAD of the voxels within 2 voxels of the continuous index `centre`.
@@ -242,5 +264,27 @@ mod tests {
         .unwrap();
         let e = estimate(&image.view(), DVec3::splat(8.0)).unwrap_err();
         assert!(e.message().contains("NaN"), "{e}");
+    }
+
+    #[cfg(feature = "io")]
+    #[test]
+    fn real_seeds_find_the_lumen_and_its_surroundings() {
+        let Some(dir) = crate::test_data::data_dir() else {
+            return;
+        };
+        // ../shared/data/README.md: around the aorta seed the median is 1933 (MAD 73); the
+        // reference surface sits at 1195, a shell outside the lumen has 341.
+        let aorta = crate::io::read_image(&dir.join("vmtk-aorta/aorta.mha")).unwrap();
+        let s = estimate(&aorta.view(), DVec3::new(-221.484, -156.445, 22.501)).unwrap();
+        eprintln!("aorta: {s:?}");
+        assert!((s.reference - 1933.0).abs() < 60.0, "{s:?}");
+        assert!((s.surroundings - 341.0).abs() < 250.0, "{s:?}");
+        assert!((s.reference - s.tolerance - 1195.0).abs() < 150.0, "{s:?}");
+        // The carotid seed: vessels 257–430 on a background of about 100.
+        let carotid = crate::io::read_image(&dir.join("vtk-carotid/carotid.mha")).unwrap();
+        let s = estimate(&carotid.view(), DVec3::new(117.0, 103.0, 9.0)).unwrap();
+        eprintln!("carotid: {s:?}");
+        assert!(s.reference > 257.0 && s.reference < 430.0, "{s:?}");
+        assert!(s.surroundings < 200.0, "{s:?}");
     }
 }
