@@ -1,5 +1,6 @@
 //! Balloon surface remeshing: growing a sphere from 162 to about 100k vertices by repeated
-//! scaling and remeshing (split, collapse), and vertex normals on the grown surface.
+//! scaling and remeshing (split, collapse), and vertex normals on the grown surface (with
+//! triangle normals as the peer to compare them with).
 
 use std::hint::black_box;
 
@@ -31,13 +32,18 @@ fn bench_surface(c: &mut Criterion) {
     let mut group = c.benchmark_group("surface");
     group.sample_size(10);
     group.bench_function("grow_162_to_100k", |b| b.iter(|| black_box(grow())));
-    let grown = grow();
+    let mut grown = grow();
+    grown.compact();
     let mut normals = Vec::new();
     group.bench_function("vertex_normals_100k", |b| {
         b.iter(|| {
             black_box(&grown).vertex_normals_into(&mut normals);
             black_box(&normals);
         })
+    });
+    // A peer for the normals: one parallel pass over the triangles, no scatter.
+    group.bench_function("triangle_normals_100k", |b| {
+        b.iter(|| black_box(black_box(&grown).triangle_normals()))
     });
     group.finish();
 }

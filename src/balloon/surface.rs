@@ -423,10 +423,7 @@ impl Surface {
     /// Every live undirected edge once, in half-edge slot order.
     pub fn edges(&self) -> impl Iterator<Item = Edge> + '_ {
         (0..self.twins.len() as u32)
-            .filter(|&h| {
-                let g = self.twins[h as usize];
-                g != NONE && h < g
-            })
+            .filter(|&h| self.represents_edge(h))
             .map(|h| Edge {
                 a: self.origin(h),
                 b: self.dest(h),
@@ -579,6 +576,14 @@ impl Surface {
     #[inline]
     pub(super) fn opposite(&self, h: u32) -> u32 {
         self.origin(prev(h))
+    }
+
+    /// Whether `h` is the live half-edge that stands for its undirected edge (the smaller id of
+    /// the twin pair).
+    #[inline]
+    pub(super) fn represents_edge(&self, h: u32) -> bool {
+        let g = self.twins[h as usize];
+        g != NONE && h < g
     }
 
     /// The half-edges leaving `v`, counter-clockwise seen from outside.
