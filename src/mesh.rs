@@ -75,6 +75,72 @@ impl TriMesh {
         TriMesh::new(points, triangles)
     }
 
+    /// A geodesic sphere, outward-oriented: an icosahedron whose triangles are each divided
+    /// into four `levels` times, vertices projected onto the sphere: `10·4^levels + 2` points
+    /// (the icosahedron's 12 first, then edge midpoints) and `20·4^levels` triangles. The
+    /// caller keeps `levels` small (10 gives 21 M triangles).
+    pub fn icosphere(centre: DVec3, radius: f64, levels: u32) -> TriMesh {
+        let t = (1.0 + 5f64.sqrt()) / 2.0;
+        let mut points: Vec<DVec3> = [
+            (-1.0, t, 0.0),
+            (1.0, t, 0.0),
+            (-1.0, -t, 0.0),
+            (1.0, -t, 0.0),
+            (0.0, -1.0, t),
+            (0.0, 1.0, t),
+            (0.0, -1.0, -t),
+            (0.0, 1.0, -t),
+            (t, 0.0, -1.0),
+            (t, 0.0, 1.0),
+            (-t, 0.0, -1.0),
+            (-t, 0.0, 1.0),
+        ]
+        .iter()
+        .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
+        .collect();
+        let mut triangles: Vec<[u32; 3]> = vec![
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ];
+        for _ in 0..levels {
+            let mut midpoint: HashMap<(u32, u32), u32> = HashMap::new();
+            let mut mid = |a: u32, b: u32, points: &mut Vec<DVec3>| {
+                *midpoint.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    points.push((points[a as usize] + points[b as usize]).normalize());
+                    (points.len() - 1) as u32
+                })
+            };
+            let mut next = Vec::with_capacity(triangles.len() * 4);
+            for [a, b, c] in triangles {
+                let ab = mid(a, b, &mut points);
+                let bc = mid(b, c, &mut points);
+                let ca = mid(c, a, &mut points);
+                next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+            }
+            triangles = next;
+        }
+        let points = points.into_iter().map(|p| centre + radius * p).collect();
+        TriMesh { points, triangles }
+    }
+
     pub fn points(&self) -> &[DVec3] {
         &self.points
     }
@@ -185,6 +251,10 @@ pub(crate) mod test_shapes {
     //! Small analytic meshes shared by the tests of several kernels.
     use super::*;
 
+    pub fn icosphere(centre: DVec3, radius: f64, levels: u32) -> TriMesh {
+        TriMesh::icosphere(centre, radius, levels)
+    }
+
     /// An axis-aligned box, outward-oriented, 12 triangles.
     pub fn cube(lo: DVec3, hi: DVec3) -> TriMesh {
         let p = |x: bool, y: bool, z: bool| {
@@ -218,69 +288,6 @@ pub(crate) mod test_shapes {
             [3, 0, 4],
             [3, 4, 7],
         ];
-        TriMesh::new(points, triangles).unwrap()
-    }
-
-    /// A geodesic sphere: an icosahedron subdivided `levels` times, projected on the sphere.
-    pub fn icosphere(centre: DVec3, radius: f64, levels: u32) -> TriMesh {
-        let t = (1.0 + 5f64.sqrt()) / 2.0;
-        let mut points: Vec<DVec3> = [
-            (-1.0, t, 0.0),
-            (1.0, t, 0.0),
-            (-1.0, -t, 0.0),
-            (1.0, -t, 0.0),
-            (0.0, -1.0, t),
-            (0.0, 1.0, t),
-            (0.0, -1.0, -t),
-            (0.0, 1.0, -t),
-            (t, 0.0, -1.0),
-            (t, 0.0, 1.0),
-            (-t, 0.0, -1.0),
-            (-t, 0.0, 1.0),
-        ]
-        .iter()
-        .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
-        .collect();
-        let mut triangles: Vec<[u32; 3]> = vec![
-            [0, 11, 5],
-            [0, 5, 1],
-            [0, 1, 7],
-            [0, 7, 10],
-            [0, 10, 11],
-            [1, 5, 9],
-            [5, 11, 4],
-            [11, 10, 2],
-            [10, 7, 6],
-            [7, 1, 8],
-            [3, 9, 4],
-            [3, 4, 2],
-            [3, 2, 6],
-            [3, 6, 8],
-            [3, 8, 9],
-            [4, 9, 5],
-            [2, 4, 11],
-            [6, 2, 10],
-            [8, 6, 7],
-            [9, 8, 1],
-        ];
-        for _ in 0..levels {
-            let mut midpoint: HashMap<(u32, u32), u32> = HashMap::new();
-            let mut mid = |a: u32, b: u32, points: &mut Vec<DVec3>| {
-                *midpoint.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                    points.push((points[a as usize] + points[b as usize]).normalize());
-                    (points.len() - 1) as u32
-                })
-            };
-            let mut next = Vec::with_capacity(triangles.len() * 4);
-            for [a, b, c] in triangles {
-                let ab = mid(a, b, &mut points);
-                let bc = mid(b, c, &mut points);
-                let ca = mid(c, a, &mut points);
-                next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-            }
-            triangles = next;
-        }
-        let points = points.into_iter().map(|p| centre + radius * p).collect();
         TriMesh::new(points, triangles).unwrap()
     }
 }

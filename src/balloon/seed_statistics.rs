@@ -20,6 +20,7 @@
 use glam::DVec3;
 
 use crate::error::{Error, Result};
+use crate::mesh::TriMesh;
 use crate::volume::Volume;
 
 /// What was estimated, for reports and for the user to override.
@@ -159,36 +160,10 @@ fn median(values: &mut [f64]) -> f64 {
     }
 }
 
-/// 42 well-spread unit directions: the icosahedron's 12 vertices and its 30 edge midpoints.
+/// 42 well-spread unit directions: a once-subdivided icosahedron's vertices (its 12 corners
+/// and 30 edge midpoints).
 fn ray_directions() -> Vec<DVec3> {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let vertices: Vec<DVec3> = [
-        (-1.0, t, 0.0),
-        (1.0, t, 0.0),
-        (-1.0, -t, 0.0),
-        (1.0, -t, 0.0),
-        (0.0, -1.0, t),
-        (0.0, 1.0, t),
-        (0.0, -1.0, -t),
-        (0.0, 1.0, -t),
-        (t, 0.0, -1.0),
-        (t, 0.0, 1.0),
-        (-t, 0.0, -1.0),
-        (-t, 0.0, 1.0),
-    ]
-    .iter()
-    .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
-    .collect();
-    let mut directions = vertices.clone();
-    // Neighbouring icosahedron vertices are the closest pairs: their angle is about 63.4°.
-    for (a, u) in vertices.iter().enumerate() {
-        for v in &vertices[a + 1..] {
-            if u.dot(*v) > 0.4 {
-                directions.push((*u + *v).normalize());
-            }
-        }
-    }
-    directions
+    TriMesh::icosphere(DVec3::ZERO, 1.0, 1).into_parts().0
 }
 
 #[cfg(test)]

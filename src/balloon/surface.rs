@@ -14,8 +14,6 @@
 //! to [`Surface::vertex_slots`] after a split. Only [`Surface::compact`] renumbers, and it returns
 //! the old→new map so that such data can follow.
 
-use std::collections::HashMap;
-
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -114,65 +112,7 @@ impl Surface {
                 20u128 << (2 * subdivisions)
             )));
         }
-        let t = (1.0 + 5f64.sqrt()) / 2.0;
-        let mut points: Vec<DVec3> = [
-            (-1.0, t, 0.0),
-            (1.0, t, 0.0),
-            (-1.0, -t, 0.0),
-            (1.0, -t, 0.0),
-            (0.0, -1.0, t),
-            (0.0, 1.0, t),
-            (0.0, -1.0, -t),
-            (0.0, 1.0, -t),
-            (t, 0.0, -1.0),
-            (t, 0.0, 1.0),
-            (-t, 0.0, -1.0),
-            (-t, 0.0, 1.0),
-        ]
-        .iter()
-        .map(|&(x, y, z)| DVec3::new(x, y, z).normalize())
-        .collect();
-        let mut triangles: Vec<[u32; 3]> = vec![
-            [0, 11, 5],
-            [0, 5, 1],
-            [0, 1, 7],
-            [0, 7, 10],
-            [0, 10, 11],
-            [1, 5, 9],
-            [5, 11, 4],
-            [11, 10, 2],
-            [10, 7, 6],
-            [7, 1, 8],
-            [3, 9, 4],
-            [3, 4, 2],
-            [3, 2, 6],
-            [3, 6, 8],
-            [3, 8, 9],
-            [4, 9, 5],
-            [2, 4, 11],
-            [6, 2, 10],
-            [8, 6, 7],
-            [9, 8, 1],
-        ];
-        for _ in 0..subdivisions {
-            let mut midpoints: HashMap<(u32, u32), u32> =
-                HashMap::with_capacity(triangles.len() * 2);
-            let mut mid = |a: u32, b: u32, points: &mut Vec<DVec3>| {
-                *midpoints.entry((a.min(b), a.max(b))).or_insert_with(|| {
-                    points.push((points[a as usize] + points[b as usize]).normalize());
-                    (points.len() - 1) as u32
-                })
-            };
-            let mut finer = Vec::with_capacity(triangles.len() * 4);
-            for [a, b, c] in triangles {
-                let ab = mid(a, b, &mut points);
-                let bc = mid(b, c, &mut points);
-                let ca = mid(c, a, &mut points);
-                finer.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
-            }
-            triangles = finer;
-        }
-        let points = points.into_iter().map(|p| centre + radius * p).collect();
+        let (points, triangles) = TriMesh::icosphere(centre, radius, subdivisions).into_parts();
         Surface::build(points, triangles)
     }
 
