@@ -8,7 +8,13 @@
 
 pub mod error;
 pub mod geometry;
+#[cfg(feature = "io")]
+pub mod io;
 pub mod mesh;
+pub mod predicates;
+pub mod self_intersection;
+pub mod spatial_hash;
+pub mod triangle_intersection;
 pub mod volume;
 
 pub use error::{Error, ErrorKind, Result};

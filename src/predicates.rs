@@ -75,6 +75,79 @@ pub fn orient3d(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> Sign {
     Sign::of(robust::orient3d(p(a), p(b), p(c), p(d))).flipped()
 }
 
+/// The oriented plane of a triangle (a, b, c), prepared for deciding the side of many points:
+/// `side(p)` equals `orient3d(a, b, c, p)`, exactly.
+///
+/// The normal's components (the 2×2 minors of b-a and c-a) are computed once. A point is then
+/// decided by a floating-point dot product checked against Shewchuk's error bound for the
+/// first, non-adaptive stage of orient3d: the evaluation has the same shape as his (differences
+/// from one corner, minors of two difference vectors, their products with the third, summed), so
+/// the same bound applies, relative to the same permanent. Points the bound cannot decide, the
+/// nearly coplanar ones, go to the adaptive exact predicate.
+#[derive(Debug, Clone, Copy)]
+pub struct Plane {
+    a: DVec3,
+    b: DVec3,
+    c: DVec3,
+    normal: DVec3,
+    /// For each normal component, the sum of the magnitudes of its two products.
+    magnitude: DVec3,
+}
+
+/// Shewchuk's O3DERRBOUND_A: (7 + 56ε)ε with ε = 2^-53.
+const ORIENT3D_ERROR_BOUND: f64 = (7.0 + 56.0 * f64::EPSILON / 2.0) * f64::EPSILON / 2.0;
+/// Shewchuk's CCWERRBOUND_A: (3 + 16ε)ε.
+const ORIENT2D_ERROR_BOUND: f64 = (3.0 + 16.0 * f64::EPSILON / 2.0) * f64::EPSILON / 2.0;
+
+impl Plane {
+    pub fn new(a: DVec3, b: DVec3, c: DVec3) -> Plane {
+        let (u, v) = (b - a, c - a);
+        let products = [
+            (u.y * v.z, u.z * v.y),
+            (u.z * v.x, u.x * v.z),
+            (u.x * v.y, u.y * v.x),
+        ];
+        Plane {
+            a,
+            b,
+            c,
+            normal: DVec3::from_array(products.map(|(p, q)| p - q)),
+            magnitude: DVec3::from_array(products.map(|(p, q)| p.abs() + q.abs())),
+        }
+    }
+
+    /// Whether the triangle is degenerate (its corners collinear), so that it has no plane;
+    /// `collinear(a, b, c)`, exactly. The normal's components are the triangle's orientations
+    /// in the three coordinate projections, evaluated as the first stage of Shewchuk's orient2d;
+    /// one that its error bound shows non-zero settles the question.
+    pub fn is_degenerate(&self) -> bool {
+        let decided = self
+            .normal
+            .abs()
+            .cmpgt(ORIENT2D_ERROR_BOUND * self.magnitude);
+        !decided.any() && collinear(self.a, self.b, self.c)
+    }
+
+    /// The triangle the plane was made from.
+    #[inline]
+    pub fn corners(&self) -> [DVec3; 3] {
+        [self.a, self.b, self.c]
+    }
+
+    /// `orient3d(a, b, c, p)`.
+    #[inline]
+    pub fn side(&self, p: DVec3) -> Sign {
+        let w = p - self.a;
+        let det = self.normal.dot(w);
+        let permanent = self.magnitude.dot(w.abs());
+        if det.abs() > ORIENT3D_ERROR_BOUND * permanent {
+            Sign::of(det)
+        } else {
+            orient3d(self.a, self.b, self.c, p)
+        }
+    }
+}
+
 /// A projection of 3D points onto a coordinate plane, dropping one axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Projection {
@@ -173,11 +246,17 @@ mod tests {
         let (a, b, c) = (on_plane(0.0, 0.0), on_plane(1.0, 0.0), on_plane(0.0, 1.0));
         for (x, y) in [(3.0, 7.0), (-1024.5, 0.25), (12345.0, -6789.0)] {
             let d = on_plane(x, y);
-            assert_eq!(orient3d(a, b, c, d), Sign::Zero, "{d}");
             let up = DVec3::new(d.x, d.y, d.z.next_up());
             let down = DVec3::new(d.x, d.y, d.z.next_down());
-            assert_eq!(orient3d(a, b, c, up), Sign::Positive, "{up}");
-            assert_eq!(orient3d(a, b, c, down), Sign::Negative, "{down}");
+            let plane = Plane::new(a, b, c);
+            for (p, expected) in [
+                (d, Sign::Zero),
+                (up, Sign::Positive),
+                (down, Sign::Negative),
+            ] {
+                assert_eq!(orient3d(a, b, c, p), expected, "{p}");
+                assert_eq!(plane.side(p), expected, "{p}");
+            }
         }
     }
 
@@ -197,6 +276,7 @@ mod tests {
                 assert_eq!(orient2d(a, b, p, Projection::Xy), exact, "{i} {j}");
                 // det[b-a, lift-a, p-a] = -(b-a)×(p-a)·z, hence the flip.
                 assert_eq!(orient3d(a, b, lift, p), exact.flipped(), "{i} {j}");
+                assert_eq!(Plane::new(a, b, lift).side(p), exact.flipped(), "{i} {j}");
                 naive_wrong += usize::from(naive_orient3d(a, b, lift, p) != exact.flipped());
             }
         }
@@ -231,8 +311,9 @@ mod tests {
             let d = shift([0, 1, 2].map(|k| s * u[k] + t * v[k] + next(1)));
             let exact = exact_orient3d(a, b, c, d);
             zeros += usize::from(exact == Sign::Zero);
-            let got = orient3d(to_f64(a), to_f64(b), to_f64(c), to_f64(d));
-            assert_eq!(got, exact, "{a:?} {b:?} {c:?} {d:?}");
+            let (a, b, c, d) = (to_f64(a), to_f64(b), to_f64(c), to_f64(d));
+            assert_eq!(orient3d(a, b, c, d), exact, "{a} {b} {c} {d}");
+            assert_eq!(Plane::new(a, b, c).side(d), exact, "{a} {b} {c} {d}");
         }
         assert!(
             zeros > 100,
@@ -254,6 +335,18 @@ mod tests {
         let (u, w) = (DVec3::ONE, DVec3::splat(3.0));
         assert!(collinear(p, u, w));
         assert!(!collinear(p, u, DVec3::new(3.0, 3f64.next_up(), 3.0)));
+        for (a, b, c) in [
+            (p, q, r),
+            (p, u, w),
+            (p, p, r),
+            (p, u, DVec3::new(3.0, 3f64.next_up(), 3.0)),
+        ] {
+            assert_eq!(
+                Plane::new(a, b, c).is_degenerate(),
+                collinear(a, b, c),
+                "{a} {b} {c}"
+            );
+        }
     }
 
     #[test]

@@ -21,9 +21,9 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
-use crate::predicates::{collinear, coplanar_orientation, orient3d, Sign};
-use crate::spatial_hash::{overlapping_pairs, Aabb};
-use crate::triangle_intersection::{nondegenerate_triangles_intersect, segment_triangle_intersect};
+use crate::predicates::{coplanar_orientation, Plane, Sign};
+use crate::spatial_hash::{overlapping_pairs, spatial_order, Aabb};
+use crate::triangle_intersection::{prepared_triangles_intersect, segment_meets_prepared};
 
 /// The pairs (a, b) of intersecting triangles, sorted, as CGAL's
 /// `Polygon_mesh_processing::self_intersections` defines them: a < b for two non-degenerate
@@ -49,64 +49,111 @@ pub fn self_intersections_among(mesh: &TriMesh, active: &[bool]) -> Result<Vec<(
 fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> {
     let count = u32::try_from(mesh.triangles().len())
         .expect("more than 2^32 triangles: the pair ids of the result cannot hold them");
-    let boxes: Vec<Option<Aabb>> = (0..count)
+    let faces: Vec<Face> = (0..count)
         .into_par_iter()
-        .map(|t| {
-            let [a, b, c] = mesh.corners(t as usize);
-            (!collinear(a, b, c)).then(|| Aabb::of_triangle([a, b, c]))
+        .map(|t| Face::new(mesh, t))
+        .collect();
+    let degenerate: Vec<u32> = faces
+        .par_iter()
+        .filter(|f| f.plane.is_degenerate())
+        .map(|f| f.id)
+        .collect();
+    let faces: Vec<Face> = if degenerate.is_empty() {
+        faces
+    } else {
+        faces
+            .into_par_iter()
+            .filter(|f| !f.plane.is_degenerate())
+            .collect()
+    };
+    // The faces in the order the spatial hash visits them, so that the exact tests read memory
+    // almost sequentially instead of jumping around the mesh.
+    let boxes: Vec<Aabb> = faces
+        .par_iter()
+        .map(|f| Aabb::of_triangle(f.plane.corners()))
+        .collect();
+    let order = spatial_order(&boxes);
+    drop(boxes);
+    let faces: Vec<Face> = order.par_iter().map(|&k| faces[k as usize]).collect();
+    let boxes: Vec<Aabb> = faces
+        .par_iter()
+        .map(|f| Aabb::of_triangle(f.plane.corners()))
+        .collect();
+    let found = overlapping_pairs(&boxes, |x, y| {
+        let (a, b) = (&faces[x as usize], &faces[y as usize]);
+        (active(a.id) || active(b.id)) && faces_intersect(a, b)
+    });
+    let mut pairs: Vec<(u32, u32)> = found
+        .par_iter()
+        .map(|&(x, y)| {
+            let (a, b) = (faces[x as usize].id, faces[y as usize].id);
+            (a.min(b), a.max(b))
         })
         .collect();
-    let items: Vec<(u32, Aabb)> = (0..count)
-        .zip(&boxes)
-        .filter_map(|(t, b)| b.map(|b| (t, b)))
-        .collect();
-    let mut pairs = overlapping_pairs(&items, |a, b| {
-        (active(a) || active(b)) && faces_intersect(mesh, a, b)
-    });
     pairs.extend(
-        (0..count)
-            .zip(&boxes)
-            .filter(|&(t, b)| b.is_none() && active(t))
-            .map(|(t, _)| (t, t)),
+        degenerate
+            .into_iter()
+            .filter(|&t| active(t))
+            .map(|t| (t, t)),
     );
     pairs.par_sort_unstable();
     pairs
 }
 
-/// CGAL's decision for two distinct non-degenerate triangles of the mesh.
-fn faces_intersect(mesh: &TriMesh, a: u32, b: u32) -> bool {
-    let (ta, tb) = (mesh.triangles()[a as usize], mesh.triangles()[b as usize]);
-    let point = |v: u32| mesh.points()[v as usize];
-    let corners = |t: [u32; 3]| t.map(point);
-    // Where each corner of a appears in b.
-    let in_b = ta.map(|v| tb.iter().position(|&w| w == v));
-    let shared_edge = (0..3).find(|&i| in_b[i].is_some() && in_b[(i + 1) % 3].is_some());
-    if let Some(i) = shared_edge {
-        let (p, q, r) = (ta[i], ta[(i + 1) % 3], ta[(i + 2) % 3]);
-        // b has distinct indices (it is not degenerate), so exactly one corner is off the edge.
-        let s = tb.into_iter().find(|&w| w != p && w != q).unwrap_or(r);
-        return folds_onto(point(p), point(q), point(r), point(s));
-    }
-    match (0..3).find_map(|i| in_b[i].map(|j| (i, j))) {
-        Some((i, j)) => {
-            let opposite = |t: [u32; 3], k: usize| [point(t[(k + 1) % 3]), point(t[(k + 2) % 3])];
-            segment_triangle_intersect(opposite(tb, j), corners(ta))
-                || segment_triangle_intersect(opposite(ta, i), corners(tb))
+/// A non-degenerate triangle of the mesh, as the exact tests need it: its plane (holding its
+/// corners) is prepared once for the dozen or so tests it takes part in.
+#[derive(Clone, Copy)]
+struct Face {
+    plane: Plane,
+    vertices: [u32; 3],
+    /// Index in the mesh.
+    id: u32,
+}
+
+impl Face {
+    fn new(mesh: &TriMesh, id: u32) -> Face {
+        let [a, b, c] = mesh.corners(id as usize);
+        Face {
+            plane: Plane::new(a, b, c),
+            vertices: mesh.triangles()[id as usize],
+            id,
         }
-        None => nondegenerate_triangles_intersect(corners(ta), corners(tb)),
     }
 }
 
-/// Two triangles sharing the edge pq, with opposite corners r and s, overlap iff all four
-/// points are coplanar and r, s lie strictly on the same side of pq.
-fn folds_onto(p: DVec3, q: DVec3, r: DVec3, s: DVec3) -> bool {
-    orient3d(p, q, r, s) == Sign::Zero && coplanar_orientation(p, q, r, s) == Sign::Positive
+/// CGAL's decision for two distinct non-degenerate triangles.
+fn faces_intersect(a: &Face, b: &Face) -> bool {
+    let (va, vb) = (a.vertices, b.vertices);
+    let (ca, cb) = (a.plane.corners(), b.plane.corners());
+    // Where each corner of a appears in b.
+    let in_b = va.map(|v| vb.iter().position(|&w| w == v));
+    let shared_edge = (0..3).find(|&i| in_b[i].is_some() && in_b[(i + 1) % 3].is_some());
+    if let Some(i) = shared_edge {
+        let (p, q, r) = (i, (i + 1) % 3, (i + 2) % 3);
+        // b has distinct vertices (it is not degenerate), so one corner is off the edge.
+        let s = (0..3)
+            .find(|&k| vb[k] != va[p] && vb[k] != va[q])
+            .map_or(ca[r], |k| cb[k]);
+        // Intersecting iff the triangles fold onto each other: s coplanar with a (whose corners
+        // p, q, r are, in rotated order) and strictly on the same side of pq as r.
+        return a.plane.side(s) == Sign::Zero
+            && coplanar_orientation(ca[p], ca[q], ca[r], s) == Sign::Positive;
+    }
+    match (0..3).find_map(|i| in_b[i].map(|j| (i, j))) {
+        Some((i, j)) => {
+            let opposite = |c: [DVec3; 3], k: usize| [c[(k + 1) % 3], c[(k + 2) % 3]];
+            segment_meets_prepared(opposite(cb, j), &a.plane)
+                || segment_meets_prepared(opposite(ca, i), &b.plane)
+        }
+        None => prepared_triangles_intersect(&a.plane, &b.plane),
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::mesh::test_shapes::icosphere;
+    use crate::predicates::collinear;
     use proptest::prelude::*;
 
     /// Every pair tested, no bounding boxes: the reference for the spatial hash.
@@ -118,9 +165,10 @@ mod tests {
         };
         let mut pairs: Vec<(u32, u32)> =
             (0..n).filter(|&t| degenerate(t)).map(|t| (t, t)).collect();
+        let face = |id: u32| Face::new(mesh, id);
         for a in (0..n).filter(|&t| !degenerate(t)) {
             for b in (a + 1..n).filter(|&t| !degenerate(t)) {
-                if faces_intersect(mesh, a, b) {
+                if faces_intersect(&face(a), &face(b)) {
                     pairs.push((a, b));
                 }
             }

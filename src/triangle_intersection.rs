@@ -11,7 +11,7 @@
 
 use glam::DVec3;
 
-use crate::predicates::{orient2d, orient3d, Projection, Sign};
+use crate::predicates::{orient2d, orient3d, Plane, Projection, Sign};
 
 /// Whether two closed triangles share at least one point, exactly.
 ///
@@ -25,16 +25,18 @@ pub fn triangles_intersect(a: [DVec3; 3], b: [DVec3; 3]) -> bool {
     ) else {
         return false;
     };
-    nondegenerate_triangles_intersect(a, b)
+    prepared_triangles_intersect(&Plane::new(a[0], a[1], a[2]), &Plane::new(b[0], b[1], b[2]))
 }
 
-/// `triangles_intersect` for triangles known to be non-degenerate.
-pub(crate) fn nondegenerate_triangles_intersect(a: [DVec3; 3], b: [DVec3; 3]) -> bool {
-    let a_sides = a.map(|p| orient3d(b[0], b[1], b[2], p));
+/// `triangles_intersect` for non-degenerate triangles given with their planes (which callers
+/// testing one triangle against many compute once).
+pub(crate) fn prepared_triangles_intersect(a_plane: &Plane, b_plane: &Plane) -> bool {
+    let (a, b) = (a_plane.corners(), b_plane.corners());
+    let a_sides = a.map(|p| b_plane.side(p));
     if strictly_one_side(a_sides) {
         return false;
     }
-    let b_sides = b.map(|p| orient3d(a[0], a[1], a[2], p));
+    let b_sides = b.map(|p| a_plane.side(p));
     if strictly_one_side(b_sides) {
         return false;
     }
@@ -65,9 +67,13 @@ pub(crate) fn nondegenerate_triangles_intersect(a: [DVec3; 3], b: [DVec3; 3]) ->
 /// Whether a closed segment and a closed non-degenerate triangle share a point, exactly. The
 /// segment may be degenerate (a point).
 pub fn segment_triangle_intersect(s: [DVec3; 2], t: [DVec3; 3]) -> bool {
-    let [p, q] = s;
-    let sp = orient3d(t[0], t[1], t[2], p);
-    let sq = orient3d(t[0], t[1], t[2], q);
+    segment_meets_prepared(s, &Plane::new(t[0], t[1], t[2]))
+}
+
+/// `segment_triangle_intersect` with the triangle given by its plane.
+pub(crate) fn segment_meets_prepared(s: [DVec3; 2], plane: &Plane) -> bool {
+    let ([p, q], t) = (s, plane.corners());
+    let (sp, sq) = (plane.side(p), plane.side(q));
     match (sp, sq) {
         (Sign::Zero, Sign::Zero) => match Projection::of_triangle(t[0], t[1], t[2]) {
             Some(proj) => {
