@@ -16,9 +16,13 @@ pub mod marching_cubes;
 pub mod mesh;
 pub mod mesh_checks;
 pub mod phantom;
+pub mod predicates;
+pub mod self_intersection;
 pub mod signed_distance;
+pub mod spatial_hash;
 #[doc(hidden)]
 pub mod test_data;
+pub mod triangle_intersection;
 pub mod volume;
 pub mod winding_number;
 

@@ -23,6 +23,7 @@ pub mod metaimage;
 pub mod nifti;
 pub mod nrrd;
 pub mod obj;
+pub mod off;
 pub mod ply;
 pub mod stl;
 pub mod vtk_legacy;
@@ -38,7 +39,7 @@ pub const IMAGE_READ_FORMATS: &str = ".mha, .mhd, .nrrd, .nhdr, .nii, .nii.gz, .
 /// The volume extensions [`write_image`] understands.
 pub const IMAGE_WRITE_FORMATS: &str = ".mha, .nrrd, .nii.gz";
 /// The mesh extensions [`read_mesh`] and [`write_mesh`] understand.
-pub const MESH_FORMATS: &str = ".vtp, .vtk, .ply, .stl, .obj";
+pub const MESH_FORMATS: &str = ".vtp, .vtk, .ply, .stl, .obj, .off";
 
 /// The lower-case extension, with `.nii.gz` kept whole.
 fn extension(path: &Path) -> String {
@@ -91,6 +92,7 @@ pub fn read_mesh(path: &Path) -> Result<TriMesh> {
         "ply" => ply::read(path),
         "stl" => stl::read(path),
         "obj" => obj::read(path),
+        "off" => off::read(path),
         _ => Err(unsupported(path, "mesh", MESH_FORMATS)),
     }
 }
@@ -104,6 +106,7 @@ pub fn write_mesh(path: &Path, mesh: &TriMesh, point_data: &[PointData]) -> Resu
         "ply" => ply::write(path, mesh, point_data),
         "stl" => stl::write(path, mesh, point_data),
         "obj" => obj::write(path, mesh, point_data),
+        "off" => off::write(path, mesh),
         _ => Err(unsupported(path, "mesh", MESH_FORMATS)),
     }
 }

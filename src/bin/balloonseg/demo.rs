@@ -3,7 +3,7 @@
 //!
 //! For each phantom (10% noise, 0.8 × 0.8 × 1.5 mm voxels, oblique grid) it extracts the
 //! isosurface half-way between background and object, and measures it: validity, genus,
-//! components, volume against the analytic shape, self-intersections, time.
+//! components, enclosed volume against the analytic shape, time.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -33,16 +33,17 @@ pub fn run(args: &Args) -> Result<ExitCode> {
     let mut report = String::new();
     writeln!(
         report,
-        "{:<15} {:>9} {:>6} {:>9} {:>6} {:>10} {:>10} {:>8}",
-        "phantom", "triangles", "closed", "genus", "comps", "volume", "true vol", "seconds"
+        "{:<15} {:>9} {:>6} {:>9} {:>6} {:>10} {:>10} {:>6}",
+        "phantom", "triangles", "closed", "genus", "comps", "volume", "true vol", "ms"
     )
     .expect("writing to a String");
     for shape in Shape::ALL {
         let p = phantom::render(shape, &options)?;
         io::write_image(&args.dir.join(format!("{}.mha", shape.name())), &p.image)?;
         let start = Instant::now();
-        let mesh = marching_cubes(&p.image.view(), level)?;
-        let seconds = start.elapsed().as_secs_f64();
+        // Normals point towards higher values, into the bright object: flip them outward.
+        let mesh = marching_cubes(&p.image.view(), level)?.flipped();
+        let milliseconds = 1e3 * start.elapsed().as_secs_f64();
         io::write_mesh(
             &args.dir.join(format!("{}-isosurface.vtp", shape.name())),
             &mesh,
@@ -54,7 +55,7 @@ pub fn run(args: &Args) -> Result<ExitCode> {
             .map_or("-".to_string(), |g| format!("{g} ({})", shape.genus()));
         writeln!(
             report,
-            "{:<15} {:>9} {:>6} {:>9} {:>6} {:>10.0} {:>10.0} {:>8.3}",
+            "{:<15} {:>9} {:>6} {:>9} {:>6} {:>10.0} {:>10.0} {:>6.1}",
             shape.name(),
             check.triangles,
             check.closed(),
@@ -62,14 +63,15 @@ pub fn run(args: &Args) -> Result<ExitCode> {
             check.components,
             check.signed_volume,
             true_volume(&p),
-            seconds
+            milliseconds
         )
         .expect("writing to a String");
     }
     writeln!(
         report,
-        "\nIsosurface at {level} of each noisy phantom; genus shows found (expected). Noise makes \
-         a plain isosurface fall apart into many components: the balloon is what fixes that."
+        "\nIsosurface at {level}, half-way between background and object, of each noisy phantom; \
+         genus is found (expected), volumes in mm³. The touching tubes come out as one object: a \
+         threshold cannot tell two touching structures apart, which the seeded balloon must."
     )
     .expect("writing to a String");
     print!("{report}");

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use balloonseg::signed_distance::{signed_distance, SignedDistanceOptions};
-use balloonseg::{io, Image, Result, VoxelBuffer};
+use balloonseg::{io, mesh_checks, Error, Image, Result, TriMesh, VoxelBuffer};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -25,11 +25,10 @@ pub struct Args {
 }
 
 pub fn run(args: &Args) -> Result<ExitCode> {
-    let mesh = io::read_mesh(&args.mesh)?;
+    let mesh = oriented_outward(io::read_mesh(&args.mesh)?, &args.mesh)?;
     let like = io::read_image(&args.like)?;
     let options = SignedDistanceOptions {
         band_voxels: args.band,
-        ..SignedDistanceOptions::default()
     };
     let distance = signed_distance(&mesh, &mesh, like.dims(), like.geometry(), &options)?;
     let distance = if args.double {
@@ -50,4 +49,29 @@ fn narrow_to_f32(image: Image) -> Result<Image> {
         other => other,
     };
     Image::new(buffer, dims, geometry)
+}
+
+/// The sign needs a closed surface; one that faces inward (as vmtk writes them) is turned
+/// around rather than giving every voxel the wrong sign.
+fn oriented_outward(mesh: TriMesh, path: &std::path::Path) -> Result<TriMesh> {
+    let report = mesh_checks::check(&mesh);
+    if !report.closed() || !report.consistently_oriented() {
+        return Err(Error::invalid_mesh(format!(
+            "{}: the mesh must be closed and consistently oriented to tell inside from outside \
+             ({} boundary edges, {} non-manifold edges, {} inconsistently oriented edges); check \
+             it with `balloonseg check`",
+            crate::shown(path),
+            report.boundary_edges,
+            report.non_manifold_edges,
+            report.inconsistently_oriented_edges
+        )));
+    }
+    if report.signed_volume < 0.0 {
+        eprintln!(
+            "{}: its triangles face inward; using them reversed",
+            crate::shown(path)
+        );
+        return Ok(mesh.flipped());
+    }
+    Ok(mesh)
 }

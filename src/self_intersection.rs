@@ -1,0 +1,413 @@
+//! Self-intersections of a triangle mesh: the pairs of triangles that meet other than along the
+//! edge or at the vertex they share, decided exactly and defined as CGAL's
+//! `Polygon_mesh_processing::self_intersections` (CGAL 5.5, `do_faces_intersect`) defines them.
+//!
+//! Candidate pairs come from the spatial hash of the triangles' bounding boxes
+//! (`spatial_hash`, Teschner et al. 2003); each is then decided by CGAL's rules, with exact
+//! predicates (`predicates`, `triangle_intersection`):
+//! - no shared vertex: the closed triangles intersect (touching counts);
+//! - one shared vertex: the edge of one triangle opposite the shared vertex meets the other
+//!   triangle, or the other way round;
+//! - a shared edge (two shared vertex indices): the two opposite vertices are coplanar with the
+//!   edge and on the same side of it, i.e. the triangles fold onto each other;
+//! - all three vertices shared (a duplicate face): always, by the same rule.
+//!
+//! A degenerate triangle (collinear corners) is not tested against others; it is reported as
+//! the pair (t, t), as CGAL does. Sharing is by vertex index, not position: two vertices at the
+//! same place are as distinct as CGAL's `Surface_mesh` vertices read from the same file.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::mesh::TriMesh;
+use crate::predicates::{coplanar_orientation, Plane, Sign};
+use crate::spatial_hash::{overlapping_pairs, spatial_order, Aabb};
+use crate::triangle_intersection::{prepared_triangles_intersect, segment_meets_prepared};
+
+/// The pairs (a, b) of intersecting triangles, sorted, as CGAL's
+/// `Polygon_mesh_processing::self_intersections` defines them: a < b for two non-degenerate
+/// triangles, and (t, t) for each degenerate triangle t. Identical for any number of threads.
+pub fn self_intersections(mesh: &TriMesh) -> Vec<(u32, u32)> {
+    find(mesh, |_| true)
+}
+
+/// `self_intersections` restricted to the pairs involving at least one triangle marked in
+/// `active` (one flag per triangle). Every active triangle is still tested against all others;
+/// the cost is that of the full search.
+pub fn self_intersections_among(mesh: &TriMesh, active: &[bool]) -> Result<Vec<(u32, u32)>> {
+    if active.len() != mesh.triangles().len() {
+        return Err(Error::invalid_argument(format!(
+            "{} activity flags for {} triangles; pass one flag per triangle",
+            active.len(),
+            mesh.triangles().len()
+        )));
+    }
+    Ok(find(mesh, |t| active[t as usize]))
+}
+
+fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> {
+    let count = u32::try_from(mesh.triangles().len())
+        .expect("more than 2^32 triangles: the pair ids of the result cannot hold them");
+    let faces: Vec<Face> = (0..count)
+        .into_par_iter()
+        .map(|t| Face::new(mesh, t))
+        .collect();
+    let degenerate: Vec<u32> = faces
+        .par_iter()
+        .filter(|f| f.plane.is_degenerate())
+        .map(|f| f.id)
+        .collect();
+    let faces: Vec<Face> = if degenerate.is_empty() {
+        faces
+    } else {
+        faces
+            .into_par_iter()
+            .filter(|f| !f.plane.is_degenerate())
+            .collect()
+    };
+    // The faces in the order the spatial hash visits them, so that the exact tests read memory
+    // almost sequentially instead of jumping around the mesh.
+    let boxes: Vec<Aabb> = faces
+        .par_iter()
+        .map(|f| Aabb::of_triangle(f.plane.corners()))
+        .collect();
+    let order = spatial_order(&boxes);
+    drop(boxes);
+    let faces: Vec<Face> = order.par_iter().map(|&k| faces[k as usize]).collect();
+    let boxes: Vec<Aabb> = faces
+        .par_iter()
+        .map(|f| Aabb::of_triangle(f.plane.corners()))
+        .collect();
+    let found = overlapping_pairs(&boxes, |x, y| {
+        let (a, b) = (&faces[x as usize], &faces[y as usize]);
+        (active(a.id) || active(b.id)) && faces_intersect(a, b)
+    });
+    let mut pairs: Vec<(u32, u32)> = found
+        .par_iter()
+        .map(|&(x, y)| {
+            let (a, b) = (faces[x as usize].id, faces[y as usize].id);
+            (a.min(b), a.max(b))
+        })
+        .collect();
+    pairs.extend(
+        degenerate
+            .into_iter()
+            .filter(|&t| active(t))
+            .map(|t| (t, t)),
+    );
+    pairs.par_sort_unstable();
+    pairs
+}
+
+/// A non-degenerate triangle of the mesh, as the exact tests need it: its plane (holding its
+/// corners) is prepared once for the dozen or so tests it takes part in.
+#[derive(Clone, Copy)]
+struct Face {
+    plane: Plane,
+    vertices: [u32; 3],
+    /// Index in the mesh.
+    id: u32,
+}
+
+impl Face {
+    fn new(mesh: &TriMesh, id: u32) -> Face {
+        let [a, b, c] = mesh.corners(id as usize);
+        Face {
+            plane: Plane::new(a, b, c),
+            vertices: mesh.triangles()[id as usize],
+            id,
+        }
+    }
+}
+
+/// CGAL's decision for two distinct non-degenerate triangles.
+fn faces_intersect(a: &Face, b: &Face) -> bool {
+    let (va, vb) = (a.vertices, b.vertices);
+    let (ca, cb) = (a.plane.corners(), b.plane.corners());
+    // Where each corner of a appears in b.
+    let in_b = va.map(|v| vb.iter().position(|&w| w == v));
+    let shared_edge = (0..3).find(|&i| in_b[i].is_some() && in_b[(i + 1) % 3].is_some());
+    if let Some(i) = shared_edge {
+        let (p, q, r) = (i, (i + 1) % 3, (i + 2) % 3);
+        // b has distinct vertices (it is not degenerate), so one corner is off the edge.
+        let s = (0..3)
+            .find(|&k| vb[k] != va[p] && vb[k] != va[q])
+            .map_or(ca[r], |k| cb[k]);
+        // Intersecting iff the triangles fold onto each other: s coplanar with a (whose corners
+        // p, q, r are, in rotated order) and strictly on the same side of pq as r.
+        return a.plane.side(s) == Sign::Zero
+            && coplanar_orientation(ca[p], ca[q], ca[r], s) == Sign::Positive;
+    }
+    match (0..3).find_map(|i| in_b[i].map(|j| (i, j))) {
+        Some((i, j)) => {
+            let opposite = |c: [DVec3; 3], k: usize| [c[(k + 1) % 3], c[(k + 2) % 3]];
+            segment_meets_prepared(opposite(cb, j), &a.plane)
+                || segment_meets_prepared(opposite(ca, i), &b.plane)
+        }
+        None => prepared_triangles_intersect(&a.plane, &b.plane),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::test_shapes::icosphere;
+    use crate::predicates::collinear;
+    use proptest::prelude::*;
+
+    /// Every pair tested, no bounding boxes: the reference for the spatial hash.
+    fn brute_force(mesh: &TriMesh) -> Vec<(u32, u32)> {
+        let n = mesh.triangles().len() as u32;
+        let degenerate = |t: u32| {
+            let [a, b, c] = mesh.corners(t as usize);
+            collinear(a, b, c)
+        };
+        let mut pairs: Vec<(u32, u32)> =
+            (0..n).filter(|&t| degenerate(t)).map(|t| (t, t)).collect();
+        let face = |id: u32| Face::new(mesh, id);
+        for a in (0..n).filter(|&t| !degenerate(t)) {
+            for b in (a + 1..n).filter(|&t| !degenerate(t)) {
+                if faces_intersect(&face(a), &face(b)) {
+                    pairs.push((a, b));
+                }
+            }
+        }
+        pairs.sort_unstable();
+        pairs
+    }
+
+    fn mesh(points: &[[f64; 3]], triangles: &[[u32; 3]]) -> TriMesh {
+        let points = points.iter().map(|&p| DVec3::from_array(p)).collect();
+        TriMesh::new(points, triangles.to_vec()).unwrap()
+    }
+
+    fn merged(meshes: &[TriMesh]) -> TriMesh {
+        let mut points = Vec::new();
+        let mut triangles = Vec::new();
+        for m in meshes {
+            let offset = points.len() as u32;
+            points.extend_from_slice(m.points());
+            triangles.extend(m.triangles().iter().map(|t| t.map(|v| v + offset)));
+        }
+        TriMesh::new(points, triangles).unwrap()
+    }
+
+    /// A unit icosphere whose cap above z = 0.7 is pushed down through the opposite side: the
+    /// stretched ring of triangles around the cap crosses the lower hemisphere.
+    fn pushed_cap_sphere(levels: u32) -> TriMesh {
+        icosphere(DVec3::ZERO, 1.0, levels)
+            .map_points(|p| {
+                if p.z > 0.7 {
+                    p - DVec3::new(0.0, 0.0, 2.4)
+                } else {
+                    p
+                }
+            })
+            .unwrap()
+    }
+
+    #[test]
+    fn a_clean_icosphere_has_no_self_intersection() {
+        let sphere = icosphere(DVec3::new(3.0, -1.0, 2.0), 5.0, 4);
+        assert!(self_intersections(&sphere).is_empty());
+    }
+
+    #[test]
+    fn pushed_through_cap_matches_brute_force() {
+        let m = pushed_cap_sphere(3);
+        let pairs = self_intersections(&m);
+        assert!(pairs.len() > 50, "{}", pairs.len());
+        assert_eq!(pairs, brute_force(&m));
+    }
+
+    #[test]
+    fn two_overlapping_spheres_intersect_only_across() {
+        let a = icosphere(DVec3::ZERO, 1.0, 3);
+        let b = icosphere(DVec3::new(0.9, 0.3, 0.1), 1.0, 3);
+        let n = a.triangles().len() as u32;
+        let m = merged(&[a, b]);
+        let pairs = self_intersections(&m);
+        assert!(!pairs.is_empty());
+        assert!(pairs.iter().all(|&(x, y)| x < n && y >= n));
+        assert_eq!(pairs, brute_force(&m));
+    }
+
+    #[test]
+    fn coplanar_overlap_of_unconnected_triangles() {
+        let with_height = |z: f64| {
+            mesh(
+                &[
+                    [0., 0., 1.],
+                    [4., 0., 1.],
+                    [0., 4., 1.],
+                    [1., 1., z],
+                    [5., 1., z],
+                    [1., 5., z],
+                ],
+                &[[0, 1, 2], [3, 4, 5]],
+            )
+        };
+        assert_eq!(self_intersections(&with_height(1.0)), vec![(0, 1)]);
+        // Lifted by one ulp they are apart.
+        assert!(self_intersections(&with_height(1f64.next_up())).is_empty());
+    }
+
+    #[test]
+    fn unconnected_triangles_touching_at_a_point_or_along_an_edge() {
+        // Vertex of the second triangle at the first one's corner (a distinct vertex index).
+        let at_vertex = mesh(
+            &[
+                [0., 0., 0.],
+                [4., 0., 0.],
+                [0., 4., 0.],
+                [4., 0., 0.],
+                [5., 0., 3.],
+                [5., 1., 3.],
+            ],
+            &[[0, 1, 2], [3, 4, 5]],
+        );
+        assert_eq!(self_intersections(&at_vertex), vec![(0, 1)]);
+        // A vertical triangle standing on the first one's edge.
+        let on_edge = mesh(
+            &[
+                [0., 0., 0.],
+                [4., 0., 0.],
+                [0., 4., 0.],
+                [1., 0., 0.],
+                [3., 0., 0.],
+                [2., 0., 5.],
+            ],
+            &[[0, 1, 2], [3, 4, 5]],
+        );
+        assert_eq!(self_intersections(&on_edge), vec![(0, 1)]);
+    }
+
+    #[test]
+    fn shared_edge_counts_only_a_coplanar_fold_over() {
+        let (p, q, r) = ([0., 0., 0.], [4., 0., 0.], [0., 4., 0.]);
+        let with_s =
+            |s: [f64; 3]| self_intersections(&mesh(&[p, q, r, s], &[[0, 1, 2], [1, 0, 3]]));
+        // Flat continuation across the edge, dihedral folds (even a very sharp one): clean.
+        assert!(with_s([2., -3., 0.]).is_empty());
+        assert!(with_s([2., 3., 1.]).is_empty());
+        assert!(with_s([2., 3., 1e-300]).is_empty());
+        // Folded flat onto the first triangle: intersecting, even if s lands outside it.
+        assert_eq!(with_s([1., 1., 0.]), vec![(0, 1)]);
+        assert_eq!(with_s([9., 9., 0.]), vec![(0, 1)]);
+        // s on the line of the shared edge makes the second triangle degenerate.
+        assert_eq!(with_s([6., 0., 0.]), vec![(1, 1)]);
+    }
+
+    #[test]
+    fn shared_vertex_cases() {
+        // Triangle 0 in the plane z = 0, triangle 1 shares vertex 0.
+        let base = [[0., 0., 0.], [4., 0., 0.], [0., 4., 0.]];
+        let with = |u: [f64; 3], w: [f64; 3]| {
+            self_intersections(&mesh(
+                &[base[0], base[1], base[2], u, w],
+                &[[0, 1, 2], [0, 3, 4]],
+            ))
+        };
+        // Apart except for the vertex.
+        assert!(with([-1., -2., 1.], [-2., -1., 1.]).is_empty());
+        // Second triangle's opposite edge pierces the first triangle.
+        assert_eq!(with([1., 1., -1.], [1., 1., 1.]), vec![(0, 1)]);
+        // First triangle's opposite edge pierces the second.
+        assert_eq!(with([3., 3., -2.], [3., 3., 2.]), vec![(0, 1)]);
+        // Coplanar, overlapping the first triangle (a fan folded back).
+        assert_eq!(with([3., 1., 0.], [1., 3., 0.]), vec![(0, 1)]);
+        // Coplanar and beside it; coplanar with an edge on the line of the first triangle's
+        // edge but outside it: only the vertex is common, no pair.
+        assert!(with([-1., -3., 0.], [-3., -1., 0.]).is_empty());
+        assert!(with([-1., 0., 0.], [-3., -1., 0.]).is_empty());
+        // Coplanar with an edge running along the first triangle's edge: overlap.
+        assert_eq!(with([2., 0., 0.], [2., -2., 0.]), vec![(0, 1)]);
+        // The opposite edge touches the first triangle's hypotenuse at one point, (2, 2, 0).
+        assert_eq!(with([1., 3., 1.], [3., 1., -1.]), vec![(0, 1)]);
+    }
+
+    #[test]
+    fn duplicate_faces_intersect_and_degenerate_faces_are_reported_alone() {
+        let pts = [
+            [0., 0., 0.],
+            [4., 0., 0.],
+            [0., 4., 0.],
+            [2., 2., 0.],
+            [-4., 8., 0.],
+        ];
+        // A pillow: the same triangle twice, opposite windings.
+        assert_eq!(
+            self_intersections(&mesh(&pts, &[[0, 1, 2], [0, 2, 1]])),
+            vec![(0, 1)]
+        );
+        // Points 1 to 4 lie on the line x + y = 4 and triangle 3 repeats a vertex: all but
+        // triangle 0 are degenerate, and they are not tested against it.
+        let m = mesh(&pts, &[[0, 1, 2], [1, 2, 3], [2, 3, 4], [0, 0, 4]]);
+        assert_eq!(self_intersections(&m), vec![(1, 1), (2, 2), (3, 3)]);
+        assert_eq!(self_intersections(&m), brute_force(&m));
+    }
+
+    #[test]
+    fn active_flags_keep_pairs_with_an_active_triangle() {
+        let m = pushed_cap_sphere(2);
+        let all = self_intersections(&m);
+        let active: Vec<bool> = (0..m.triangles().len()).map(|t| t % 3 == 0).collect();
+        let some = self_intersections_among(&m, &active).unwrap();
+        let expected: Vec<_> = all
+            .iter()
+            .copied()
+            .filter(|&(a, b)| active[a as usize] || active[b as usize])
+            .collect();
+        assert!(!expected.is_empty() && expected.len() < all.len());
+        assert_eq!(some, expected);
+        let e = self_intersections_among(&m, &[true]).unwrap_err();
+        assert_eq!(e.kind(), crate::ErrorKind::InvalidArgument);
+    }
+
+    #[test]
+    fn result_is_identical_with_one_and_two_threads() {
+        let m = merged(&[
+            pushed_cap_sphere(4),
+            icosphere(DVec3::new(0.5, 0.5, 0.0), 0.8, 3),
+        ]);
+        let run = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| self_intersections(&m))
+        };
+        let one = run(1);
+        assert!(!one.is_empty());
+        assert_eq!(one, run(2));
+    }
+
+    /// Small meshes on an integer grid, where shared vertices, shared edges, coplanar folds,
+    /// touching and degenerate triangles are all frequent.
+    fn small_mesh() -> impl Strategy<Value = TriMesh> {
+        let point = [-2i32..=2, -2i32..=2, -2i32..=2];
+        (
+            proptest::collection::vec(point, 4..9),
+            proptest::collection::vec([0u32..9, 0u32..9, 0u32..9], 1..12),
+        )
+            .prop_map(|(points, triangles)| {
+                let n = points.len() as u32;
+                let points = points
+                    .iter()
+                    .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
+                    .collect();
+                let triangles = triangles.iter().map(|t| t.map(|v| v % n)).collect();
+                TriMesh::new(points, triangles).unwrap()
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+
+        #[test]
+        fn spatial_hash_finds_what_brute_force_finds(m in small_mesh()) {
+            prop_assert_eq!(self_intersections(&m), brute_force(&m));
+        }
+    }
+}

@@ -1,0 +1,697 @@
+//! Broad phase for self-intersection: every pair of overlapping axis-aligned boxes, by the
+//! spatial hashing of Teschner et al., "Optimized Spatial Hashing for Collision Detection of
+//! Deformable Objects" (VMV 2003).
+//!
+//! Space is cut into cubic cells whose size is the mean box extent (the paper's finding: cells
+//! about the size of the objects work best). Only occupied cells are stored: every box is
+//! entered into each cell its extent overlaps, and boxes meeting in a cell are candidate pairs.
+//!
+//! Where Teschner et al. hash the cell coordinates into a table modulo its size, the table here
+//! is the list of (cell key, box) entries sorted by key, the key being the cell's Morton
+//! (Z-order) code: a hash without collisions whose order follows space. Each cell is a run of
+//! the sorted list, and runs are visited in Morton order, so consecutive cells hold nearby boxes
+//! and the search streams through memory; with a modulo hash, cells come in random order and
+//! every box test misses the cache (measured 3 to 5 times slower on 0.3M–1.3M triangle meshes).
+//! `spatial_order` gives the box order that makes the callers' data follow the same curve.
+//!
+//! Two boxes that overlap share several cells; the pair is examined only in the cell holding
+//! the lower corner of their overlap, which both boxes cover. So each pair is tested exactly
+//! once without a global set of visited pairs, and runs are processed in parallel. The result
+//! is sorted, hence independent of the number of threads.
+//!
+//! A box much larger than the cells would enter a huge number of them. Boxes covering up to
+//! `SMALL_BOX_CELLS` cells always enter the table; larger ones enter it too, smallest first, as
+//! long as the table holds no more than `ENTRIES_PER_BOX` entries per box on average (a few long
+//! slivers are cheaper to enter than to handle apart). The remaining boxes are deferred to a
+//! coarser level whose cell size is their mean extent; there only pairs involving a deferred box
+//! are examined (the boxes already handled are looked up in the coarser table, not entered into
+//! it). Every deferred box spans more than two cells along some axis, so each level's cells are
+//! more than twice as large as the previous level's: there are fewer levels than
+//! log2(largest / smallest extent), and the table size stays proportional to the box count.
+
+use std::ops::Range;
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// A closed axis-aligned box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Aabb {
+    pub lo: DVec3,
+    pub hi: DVec3,
+}
+
+impl Aabb {
+    pub fn of_triangle(corners: [DVec3; 3]) -> Aabb {
+        let [a, b, c] = corners;
+        Aabb {
+            lo: a.min(b).min(c),
+            hi: a.max(b).max(c),
+        }
+    }
+
+    /// Whether the closed boxes share a point (touching counts).
+    #[inline]
+    pub fn overlaps(&self, other: &Aabb) -> bool {
+        self.lo.cmple(other.hi).all() && other.lo.cmple(self.hi).all()
+    }
+
+    fn max_extent(&self) -> f64 {
+        (self.hi - self.lo).max_element()
+    }
+}
+
+/// A box covering no more than 3 cells along each axis always stays at the current level.
+const SMALL_BOX_CELLS: i64 = 27;
+/// Larger boxes stay while the level's table holds at most this many entries per box.
+const ENTRIES_PER_BOX: i64 = 8;
+
+/// Every pair (i, j) with i < j of positions in `boxes` whose boxes overlap and for which
+/// `accept(i, j)` holds, sorted. `accept` is called exactly once for each overlapping pair,
+/// from several threads.
+///
+/// Boxes are visited in Morton order: stored in `spatial_order`, they (and whatever data
+/// `accept` reads by position) are accessed almost sequentially.
+pub fn overlapping_pairs<F>(boxes: &[Aabb], accept: F) -> Vec<(u32, u32)>
+where
+    F: Fn(u32, u32) -> bool + Sync,
+{
+    let Some(origin) = lowest_corner(boxes) else {
+        return Vec::new();
+    };
+    let level = |cell_size: f64, primary: &[u32], settled: &[u32]| {
+        Level::new(boxes, Grid::new(origin, cell_size), primary).pairs(settled, &accept)
+    };
+    // Positions of the boxes still to place, and of those placed at a finer level.
+    let mut pending: Vec<u32> = (0..boxes.len() as u32).collect();
+    let mut settled: Vec<u32> = Vec::new();
+    let mut pairs = Vec::new();
+    while !pending.is_empty() {
+        let cell_size = mean_extent(pending.par_iter().map(|&i| &boxes[i as usize]));
+        let grid = Grid::new(origin, cell_size);
+        let (fits, deferred) = split_by_size(boxes, &pending, &grid);
+        if fits.is_empty() {
+            // Only when extents or coordinates are too extreme for a grid (infinite mean
+            // extent, more than 2^21 cells along an axis): one cell holding everything.
+            pairs.extend(level(f64::INFINITY, &pending, &settled));
+            break;
+        }
+        pairs.extend(level(cell_size, &fits, &settled));
+        settled.extend(fits);
+        pending = deferred;
+    }
+    pairs.par_sort_unstable();
+    pairs
+}
+
+/// The positions of `boxes` ordered along a Morton (Z-order) curve through their lower corners,
+/// on the grid of the first level of `overlapping_pairs`. Ties keep position order.
+pub fn spatial_order(boxes: &[Aabb]) -> Vec<u32> {
+    let Some(origin) = lowest_corner(boxes) else {
+        return Vec::new();
+    };
+    let grid = Grid::new(origin, mean_extent(boxes.par_iter()));
+    let highest = boxes.iter().map(|b| b.hi).fold(origin, DVec3::max);
+    let corners = LowerCorners { boxes, grid };
+    let entries = sorted_entries(Grid::key(grid.cell(highest)), &corners);
+    entries.into_iter().map(|e| e.item).collect()
+}
+
+fn lowest_corner(boxes: &[Aabb]) -> Option<DVec3> {
+    boxes.iter().map(|b| b.lo).reduce(DVec3::min)
+}
+
+/// The mean of the boxes' largest side, or infinity when that is not a usable cell size.
+fn mean_extent<'b>(boxes: impl IndexedParallelIterator<Item = &'b Aabb>) -> f64 {
+    let n = boxes.len() as f64;
+    let mean: f64 = boxes.map(|b| b.max_extent() / n).sum();
+    if mean.is_finite() && mean > 0.0 {
+        mean
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// The boxes that enter the level's table, and those deferred to a coarser level.
+fn split_by_size(boxes: &[Aabb], pending: &[u32], grid: &Grid) -> (Vec<u32>, Vec<u32>) {
+    let counts: Vec<i64> = pending
+        .par_iter()
+        .map(|&i| grid.cell_count(&boxes[i as usize]))
+        .collect();
+    let mut fits = Vec::with_capacity(pending.len());
+    let mut large = Vec::new();
+    let mut entries = 0;
+    for (&i, &count) in pending.iter().zip(&counts) {
+        if count <= SMALL_BOX_CELLS {
+            fits.push(i);
+            entries += count;
+        } else {
+            large.push((count, i));
+        }
+    }
+    large.sort_unstable();
+    let budget = ENTRIES_PER_BOX.saturating_mul(pending.len() as i64);
+    let admitted = large
+        .iter()
+        .take_while(|&&(count, _)| {
+            entries = entries.saturating_add(count);
+            entries <= budget
+        })
+        .count();
+    fits.extend(large[..admitted].iter().map(|&(_, i)| i));
+    let deferred = large[admitted..].iter().map(|&(_, i)| i).collect();
+    (fits, deferred)
+}
+
+/// Integer cell coordinates of points for one cell size.
+#[derive(Clone, Copy)]
+struct Grid {
+    origin: DVec3,
+    inverse_size: f64,
+}
+
+type Cell = [u32; 3];
+
+/// Cell coordinates are clamped to 21 bits so that a Morton key holds all three.
+const AXIS_MAX: u32 = (1 << 21) - 1;
+
+impl Grid {
+    fn new(origin: DVec3, cell_size: f64) -> Grid {
+        Grid {
+            origin,
+            inverse_size: 1.0 / cell_size,
+        }
+    }
+
+    /// The cell holding `p`, which must not be below the origin. Monotone in each coordinate
+    /// (rounding, the saturating cast and the clamp included), which is all the pair
+    /// deduplication needs: the cell of the lower corner of two boxes' overlap is then covered
+    /// by both boxes.
+    #[inline]
+    fn cell(&self, p: DVec3) -> Cell {
+        // Non-negative, so truncation is the floor; NaN (infinite size and distance) gives 0.
+        let c = (p - self.origin) * self.inverse_size;
+        [c.x, c.y, c.z].map(|x| (x as u32).min(AXIS_MAX))
+    }
+
+    /// The Morton code of a cell: the bits of its three coordinates interleaved.
+    #[inline]
+    fn key(cell: Cell) -> u64 {
+        spread(cell[0]) | spread(cell[1]) << 1 | spread(cell[2]) << 2
+    }
+
+    /// The key of the cell whose coordinates are the per-axis maxima of two cells', computed on
+    /// the keys: masked to one axis's bits, Morton keys compare as that coordinate does.
+    #[inline]
+    fn max_per_axis(a: u64, b: u64) -> u64 {
+        const X: u64 = 0x1249_2492_4924_9249;
+        [X, X << 1, X << 2]
+            .into_iter()
+            .fold(0, |key, axis| key | (a & axis).max(b & axis))
+    }
+
+    fn cell_count(&self, b: &Aabb) -> i64 {
+        let (lo, hi) = (self.cell(b.lo), self.cell(b.hi));
+        (0..3)
+            .map(|k| i64::from(hi[k]) - i64::from(lo[k]) + 1)
+            .fold(1, i64::saturating_mul)
+    }
+
+    /// Calls `f` with the key of each cell the box overlaps.
+    #[inline]
+    fn for_each_key(&self, b: &Aabb, mut f: impl FnMut(u64)) {
+        let (lo, hi) = (self.cell(b.lo), self.cell(b.hi));
+        for k in lo[2]..=hi[2] {
+            let z = spread(k) << 2;
+            for j in lo[1]..=hi[1] {
+                let yz = z | spread(j) << 1;
+                for i in lo[0]..=hi[0] {
+                    f(yz | spread(i));
+                }
+            }
+        }
+    }
+}
+
+/// The 21 low bits of `v` moved to every third bit: one axis of a Morton code.
+#[inline]
+fn spread(v: u32) -> u64 {
+    let mut x = u64::from(v) & 0x1f_ffff;
+    x = (x | x << 32) & 0x001f_0000_0000_ffff;
+    x = (x | x << 16) & 0x001f_0000_ff00_00ff;
+    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+    (x | x << 2) & 0x1249_2492_4924_9249
+}
+
+#[derive(Clone, Copy, Default)]
+struct Entry {
+    key: u64,
+    /// Position of the box.
+    item: u32,
+}
+
+/// A list of entries, produced in parts from numbered sources (see `sorted_entries`), without
+/// being stored.
+trait EntryList: Sync {
+    fn sources(&self) -> usize;
+    fn for_each(&self, sources: Range<usize>, f: impl FnMut(Entry));
+}
+
+/// One entry per box: the cell of its lower corner.
+struct LowerCorners<'b> {
+    boxes: &'b [Aabb],
+    grid: Grid,
+}
+
+impl EntryList for LowerCorners<'_> {
+    fn sources(&self) -> usize {
+        self.boxes.len()
+    }
+
+    fn for_each(&self, sources: Range<usize>, mut f: impl FnMut(Entry)) {
+        for (item, b) in (sources.start as u32..).zip(&self.boxes[sources]) {
+            f(Entry {
+                key: Grid::key(self.grid.cell(b.lo)),
+                item,
+            });
+        }
+    }
+}
+
+/// One entry per cell overlapped by each of the boxes at `items`.
+struct OverlappedCells<'b> {
+    boxes: &'b [Aabb],
+    items: &'b [u32],
+    grid: Grid,
+}
+
+impl EntryList for OverlappedCells<'_> {
+    fn sources(&self) -> usize {
+        self.items.len()
+    }
+
+    fn for_each(&self, sources: Range<usize>, mut f: impl FnMut(Entry)) {
+        for &item in &self.items[sources] {
+            self.grid
+                .for_each_key(&self.boxes[item as usize], |key| f(Entry { key, item }));
+        }
+    }
+}
+
+/// The entries of `list`, sorted by key; `max_key` bounds their keys.
+///
+/// A counting sort on the top bits of the keys distributes the entries into buckets of a few
+/// dozen entries each, written straight to their final place; the buckets are then sorted in
+/// parallel. Each thread counts, then writes, the entries of its share of the sources into its
+/// own sub-slice of every bucket. Entries come nearly in Morton order (boxes are stored along
+/// the curve), so the writes are almost sequential and the small sorts find their input nearly
+/// sorted: several times faster than sorting the whole list, and no intermediate list.
+fn sorted_entries(max_key: u64, list: &impl EntryList) -> Vec<Entry> {
+    let sources = list.sources();
+    // About 16 sources per bucket, at most 2^16 buckets.
+    let top_bits = (usize::BITS - (sources / 16).leading_zeros()).clamp(1, 16);
+    let buckets = 1usize << top_bits;
+    let shift = (u64::BITS - max_key.leading_zeros()).saturating_sub(top_bits);
+    let bucket = |e: &Entry| (e.key >> shift) as usize;
+    let parts = rayon::current_num_threads().clamp(1, sources.max(1));
+    let part = |p: usize| p * sources / parts..(p + 1) * sources / parts;
+    let counts: Vec<Vec<usize>> = (0..parts)
+        .into_par_iter()
+        .map(|p| {
+            let mut counts = vec![0usize; buckets];
+            list.for_each(part(p), |e| counts[bucket(&e)] += 1);
+            counts
+        })
+        .collect();
+    let sizes: Vec<usize> = (0..buckets)
+        .map(|b| counts.iter().map(|c| c[b]).sum())
+        .collect();
+    let mut entries = vec![Entry::default(); sizes.iter().sum()];
+    let mut shares: Vec<Vec<&mut [Entry]>> =
+        (0..parts).map(|_| Vec::with_capacity(buckets)).collect();
+    let mut rest = entries.as_mut_slice();
+    for b in 0..buckets {
+        for (share, count) in shares.iter_mut().zip(&counts) {
+            let (head, tail) = std::mem::take(&mut rest).split_at_mut(count[b]);
+            share.push(head);
+            rest = tail;
+        }
+    }
+    shares
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(p, mut share)| {
+            let mut filled = vec![0usize; buckets];
+            list.for_each(part(p), |e| {
+                let b = bucket(&e);
+                share[b][filled[b]] = e;
+                filled[b] += 1;
+            });
+        });
+    let mut slices = Vec::with_capacity(buckets);
+    let mut rest = entries.as_mut_slice();
+    for size in sizes {
+        let (head, tail) = std::mem::take(&mut rest).split_at_mut(size);
+        slices.push(head);
+        rest = tail;
+    }
+    slices
+        .into_par_iter()
+        .with_min_len(256)
+        .for_each(|b| b.sort_unstable_by_key(|e| e.key));
+    entries
+}
+
+/// The table of one level: the entries of its primary boxes, sorted by cell key.
+struct Level<'a> {
+    boxes: &'a [Aabb],
+    grid: Grid,
+    entries: Vec<Entry>,
+    /// The key of the cell holding each box's lower corner, by position.
+    lo_keys: Vec<u64>,
+}
+
+/// Runs of about this many entries are handed to one task.
+const ENTRIES_PER_TASK: usize = 4096;
+
+impl<'a> Level<'a> {
+    fn new(boxes: &'a [Aabb], grid: Grid, primary: &[u32]) -> Level<'a> {
+        let highest = primary
+            .par_iter()
+            .map(|&i| boxes[i as usize].hi)
+            .reduce(|| grid.origin, DVec3::max);
+        let cells = OverlappedCells {
+            boxes,
+            items: primary,
+            grid,
+        };
+        let entries = sorted_entries(Grid::key(grid.cell(highest)), &cells);
+        let lo_keys = boxes
+            .par_iter()
+            .map(|b| Grid::key(grid.cell(b.lo)))
+            .collect();
+        Level {
+            boxes,
+            grid,
+            entries,
+            lo_keys,
+        }
+    }
+
+    /// The entries of the cell with this key (empty if none).
+    fn cell_entries(&self, key: u64) -> &[Entry] {
+        let start = self.entries.partition_point(|e| e.key < key);
+        let len = self.entries[start..].partition_point(|e| e.key == key);
+        &self.entries[start..start + len]
+    }
+
+    /// Boundaries splitting the entries into slices of whole cells, about
+    /// `ENTRIES_PER_TASK` entries each.
+    fn task_bounds(&self) -> Vec<usize> {
+        let mut bounds = vec![0];
+        let mut next = ENTRIES_PER_TASK;
+        while next < self.entries.len() {
+            let key = self.entries[next - 1].key;
+            next += self.entries[next..].partition_point(|e| e.key == key);
+            bounds.push(next);
+            next += ENTRIES_PER_TASK;
+        }
+        if *bounds.last().unwrap_or(&0) < self.entries.len() {
+            bounds.push(self.entries.len());
+        }
+        bounds
+    }
+
+    /// Accepted overlapping pairs among the primary boxes, and between them and `settled`.
+    fn pairs<F>(&self, settled: &[u32], accept: &F) -> Vec<(u32, u32)>
+    where
+        F: Fn(u32, u32) -> bool + Sync,
+    {
+        let bounds = self.task_bounds();
+        let within = bounds.par_windows(2).fold(Vec::new, |mut out, bounds| {
+            for cell in self.entries[bounds[0]..bounds[1]].chunk_by(|e, f| e.key == f.key) {
+                for (x, e) in cell.iter().enumerate() {
+                    for f in &cell[x + 1..] {
+                        self.test(e.item, f.item, e.key, accept, &mut out);
+                    }
+                }
+            }
+            out
+        });
+        let across = settled
+            .par_iter()
+            .with_min_len(256)
+            .fold(Vec::new, |mut out, &item| {
+                self.grid.for_each_key(&self.boxes[item as usize], |key| {
+                    for e in self.cell_entries(key) {
+                        self.test(item, e.item, key, accept, &mut out);
+                    }
+                });
+                out
+            });
+        within.chain(across).reduce(Vec::new, |mut a, mut b| {
+            a.append(&mut b);
+            a
+        })
+    }
+
+    /// Tests the pair of boxes at positions `x` and `y`, met in the cell with key `key`, if this
+    /// is the cell that owns the pair: the cell of the lower corner of their overlap, whose
+    /// coordinates are the maxima of those of the boxes' lower-corner cells.
+    #[inline]
+    fn test<F>(&self, x: u32, y: u32, key: u64, accept: &F, out: &mut Vec<(u32, u32)>)
+    where
+        F: Fn(u32, u32) -> bool,
+    {
+        let owner = Grid::max_per_axis(self.lo_keys[x as usize], self.lo_keys[y as usize]);
+        if owner != key {
+            return;
+        }
+        let (a, b) = (&self.boxes[x as usize], &self.boxes[y as usize]);
+        if a.overlaps(b) {
+            let pair = (x.min(y), x.max(y));
+            if accept(pair.0, pair.1) {
+                out.push(pair);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    fn brute_force(boxes: &[Aabb]) -> Vec<(u32, u32)> {
+        let mut pairs = Vec::new();
+        for (i, a) in boxes.iter().enumerate() {
+            for (j, b) in boxes.iter().enumerate().skip(i + 1) {
+                if a.overlaps(b) {
+                    pairs.push((i as u32, j as u32));
+                }
+            }
+        }
+        pairs
+    }
+
+    fn unit(lo: DVec3) -> Aabb {
+        Aabb {
+            lo,
+            hi: lo + DVec3::ONE,
+        }
+    }
+
+    /// Random boxes from a xorshift generator; sizes spread over `decades` powers of ten.
+    fn random_boxes(n: usize, decades: f64, seed: u64) -> Vec<Aabb> {
+        let mut state = seed;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|_| {
+                let lo = DVec3::new(uniform(), uniform(), uniform()) * 100.0;
+                let size = 10f64.powf(decades * uniform() - decades + 0.5);
+                let extent = DVec3::new(uniform(), uniform(), uniform()) * size;
+                Aabb {
+                    lo,
+                    hi: lo + extent,
+                }
+            })
+            .collect()
+    }
+
+    fn check_against_brute_force(boxes: &[Aabb]) {
+        let calls = AtomicUsize::new(0);
+        let pairs = overlapping_pairs(boxes, |_, _| {
+            calls.fetch_add(1, Ordering::Relaxed);
+            true
+        });
+        let expected = brute_force(boxes);
+        assert_eq!(pairs, expected);
+        let calls = calls.load(Ordering::Relaxed);
+        assert_eq!(calls, expected.len(), "one call per pair");
+    }
+
+    #[test]
+    fn uniform_boxes_match_brute_force() {
+        check_against_brute_force(&random_boxes(2000, 0.3, 1));
+    }
+
+    #[test]
+    fn boxes_of_very_different_sizes_match_brute_force() {
+        // Sizes from 0.003 to 300 across a 100-wide region: several levels.
+        check_against_brute_force(&random_boxes(2000, 5.0, 7));
+    }
+
+    #[test]
+    fn touching_and_identical_boxes_count_as_overlapping() {
+        let boxes = [
+            unit(DVec3::ZERO),
+            unit(DVec3::X),
+            unit(DVec3::ZERO),
+            unit(DVec3::splat(1f64.next_up())),
+            unit(DVec3::ONE),
+        ];
+        let pairs = overlapping_pairs(&boxes, |_, _| true);
+        assert_eq!(pairs, brute_force(&boxes));
+        assert!(pairs.contains(&(0, 4)) && pairs.contains(&(0, 2)));
+        assert!(!pairs.contains(&(0, 3)));
+    }
+
+    #[test]
+    fn a_box_covering_millions_of_cells_is_deferred_to_a_coarser_level() {
+        // 10^4 unit boxes on a plane and one box a million times larger, which would cover
+        // about 10^8 cells of the fine level.
+        let mut boxes: Vec<Aabb> = (0..10_000u32)
+            .map(|i| {
+                unit(DVec3::new(
+                    (i % 100) as f64 * 1.5,
+                    (i / 100) as f64 * 1.5,
+                    0.0,
+                ))
+            })
+            .collect();
+        boxes.push(Aabb {
+            lo: DVec3::splat(-1.0e6),
+            hi: DVec3::new(1.0e6, 1.0e6, 0.5),
+        });
+        let pairs = overlapping_pairs(&boxes, |_, _| true);
+        assert_eq!(pairs.len(), 10_000);
+        assert!(pairs.iter().all(|&(_, b)| b == 10_000));
+    }
+
+    #[test]
+    fn accept_filters_pairs_and_result_is_sorted() {
+        let boxes = random_boxes(500, 0.5, 3);
+        let pairs = overlapping_pairs(&boxes, |a, b| (a + b) % 3 == 0);
+        let expected: Vec<_> = brute_force(&boxes)
+            .into_iter()
+            .filter(|(a, b)| (a + b) % 3 == 0)
+            .collect();
+        assert_eq!(pairs, expected);
+    }
+
+    #[test]
+    fn empty_and_single_inputs() {
+        assert!(overlapping_pairs(&[], |_, _| true).is_empty());
+        assert!(spatial_order(&[]).is_empty());
+        let one = [Aabb::of_triangle([DVec3::ZERO, DVec3::X, DVec3::Y])];
+        assert!(overlapping_pairs(&one, |_, _| true).is_empty());
+        assert_eq!(spatial_order(&one), vec![0]);
+    }
+
+    #[test]
+    fn extreme_extents_and_coordinates_fall_back_to_coarse_cells() {
+        let everything = Aabb {
+            lo: DVec3::splat(-f64::MAX),
+            hi: DVec3::splat(f64::MAX),
+        };
+        let boxes = [everything, unit(DVec3::ZERO), everything];
+        assert_eq!(overlapping_pairs(&boxes, |_, _| true), brute_force(&boxes));
+        // Unit boxes 10^9 cells apart: cell coordinates beyond 21 bits are clamped.
+        let far: Vec<Aabb> = (0..50)
+            .map(|i| unit(DVec3::new(i as f64 * 1e9, (i % 3) as f64 * 0.5, 0.0)))
+            .chain((0..50).map(|i| unit(DVec3::new(i as f64 * 0.5, 0.0, 0.0))))
+            .collect();
+        check_against_brute_force(&far);
+    }
+
+    #[test]
+    fn sorted_entries_orders_keys_of_any_width() {
+        let mut state = 12345u64;
+        let input: Vec<Entry> = (0..5000)
+            .map(|i| {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let key = if i % 2 == 0 { state >> 1 } else { state >> 50 };
+                Entry { key, item: i }
+            })
+            .collect();
+        struct Listed(Vec<Entry>);
+        impl EntryList for Listed {
+            fn sources(&self) -> usize {
+                self.0.len()
+            }
+            fn for_each(&self, sources: Range<usize>, f: impl FnMut(Entry)) {
+                self.0[sources].iter().copied().for_each(f);
+            }
+        }
+        let max_key = input.iter().map(|e| e.key).max().unwrap();
+        let entries = sorted_entries(max_key, &Listed(input.clone()));
+        assert!(entries.windows(2).all(|w| w[0].key <= w[1].key));
+        // A permutation of the input.
+        let pairs = |v: &[Entry]| {
+            let mut p: Vec<(u64, u32)> = v.iter().map(|e| (e.key, e.item)).collect();
+            p.sort_unstable();
+            p
+        };
+        assert_eq!(pairs(&entries), pairs(&input));
+        // Keys narrower than the bucket bits, and no entries at all.
+        let small: Vec<Entry> = (0..100u32)
+            .rev()
+            .map(|i| Entry {
+                key: u64::from(i % 7),
+                item: i,
+            })
+            .collect();
+        let small = sorted_entries(6, &Listed(small));
+        assert_eq!(small.len(), 100);
+        assert!(small.windows(2).all(|w| w[0].key <= w[1].key));
+        assert!(sorted_entries(0, &Listed(Vec::new())).is_empty());
+    }
+
+    #[test]
+    fn morton_keys_interleave_the_coordinates() {
+        assert_eq!(Grid::key([1, 0, 0]), 1);
+        assert_eq!(Grid::key([0, 1, 0]), 2);
+        assert_eq!(Grid::key([0, 0, 1]), 4);
+        assert_eq!(Grid::key([3, 0, 0]), 0b1001);
+        assert_eq!(Grid::key([AXIS_MAX; 3]), (1 << 63) - 1);
+        let (a, b) = ([5, 900, 17], [6, 3, 17]);
+        assert_eq!(
+            Grid::max_per_axis(Grid::key(a), Grid::key(b)),
+            Grid::key([6, 900, 17])
+        );
+    }
+
+    #[test]
+    fn spatial_order_is_a_permutation_following_the_curve() {
+        let boxes = random_boxes(1000, 0.3, 11);
+        let order = spatial_order(&boxes);
+        let mut sorted = order.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, (0..1000).collect::<Vec<u32>>());
+        // Consecutive boxes are close: the mean step is far below the mean random distance.
+        let step: f64 = order
+            .windows(2)
+            .map(|w| boxes[w[0] as usize].lo.distance(boxes[w[1] as usize].lo))
+            .sum::<f64>()
+            / 999.0;
+        assert!(step < 20.0, "{step}");
+    }
+}
