@@ -24,7 +24,7 @@ def aorta_surface_in_image_space(data_dir):
 def write_off(path, points, triangles):
     with open(path, "w") as f:
         f.write(f"OFF\n{len(points)} {len(triangles)} 0\n")
-        f.writelines(f"{x!r} {y!r} {z!r}\n" for x, y, z in points)
+        f.writelines(f"{float(x)!r} {float(y)!r} {float(z)!r}\n" for x, y, z in points)
         f.writelines(f"3 {a} {b} {c}\n" for a, b, c in triangles)
 
 
