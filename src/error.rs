@@ -16,6 +16,12 @@ pub enum ErrorKind {
     Io,
     /// A file was read but its contents are corrupt, truncated or unsupported.
     Format,
+    /// The caller's progress callback asked to stop.
+    Cancelled,
+    /// The balloon grew past its vertex limit: it has most likely leaked out of the structure.
+    Leak,
+    /// A result failed the library's own guarantees (a bug: please report it with the input).
+    Internal,
 }
 
 /// An error with a human-readable message.
@@ -53,6 +59,18 @@ impl Error {
 
     pub fn format(message: impl Into<String>) -> Self {
         Self::new(ErrorKind::Format, message)
+    }
+
+    pub fn cancelled(message: impl Into<String>) -> Self {
+        Self::new(ErrorKind::Cancelled, message)
+    }
+
+    pub fn leak(message: impl Into<String>) -> Self {
+        Self::new(ErrorKind::Leak, message)
+    }
+
+    pub fn internal(message: impl Into<String>) -> Self {
+        Self::new(ErrorKind::Internal, message)
     }
 
     pub fn kind(&self) -> ErrorKind {

@@ -38,7 +38,7 @@ impl Default for ForceWeights {
     fn default() -> Self {
         ForceWeights {
             elastic: 0.4,
-            bending: 0.3,
+            bending: 0.15,
             inflation: 1.0,
         }
     }

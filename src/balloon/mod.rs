@@ -4,6 +4,8 @@
 //! become too short, always staying a closed, oriented 2-manifold — on which the forces work.
 
 pub mod forces;
+mod inflation;
+pub mod params;
 mod remesh;
 pub mod seed_statistics;
 pub mod surface;

@@ -290,6 +290,11 @@ impl Surface {
         &mut self.states
     }
 
+    /// Positions and states by slot together, to update both in one pass.
+    pub fn positions_and_states_mut(&mut self) -> (&mut [DVec3], &mut [VertexState]) {
+        (&mut self.positions, &mut self.states)
+    }
+
     /// Length of the per-vertex arrays, tombstones included.
     pub fn vertex_slots(&self) -> usize {
         self.positions.len()

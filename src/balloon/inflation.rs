@@ -1,0 +1,243 @@
+//! One step of the balloon's evolution: explicit integration of the forces (`forces`) in the
+//! overdamped limit — a vertex's velocity is its force, there is no momentum to overshoot —
+//! with every displacement clamped to a fraction of a voxel, so that the balloon cannot jump
+//! through a wall thinner than a voxel.
+//!
+//! A vertex whose step crosses the border of the intensity window (or the volume's edge) is
+//! put on the crossing, found by bisection on the trilinear intensity, and frozen there: the
+//! border is located to a small fraction of the step, not to the step itself. Frozen vertices
+//! no longer move (paper, section 2).
+//!
+//! Each vertex's new position depends only on the surface before the step, so vertices are
+//! updated in parallel with the same result for any thread count.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::forces::{internal_forces, ForceWeights, IntensityWindow};
+use super::surface::{Surface, VertexState};
+use crate::volume::Volume;
+
+/// What a step needs besides the surface.
+pub(crate) struct Stepper<'a, 'v> {
+    pub volume: &'a Volume<'v>,
+    pub window: IntensityWindow,
+    pub weights: ForceWeights,
+    pub edge_length: f64,
+    pub max_step: f64,
+}
+
+/// Buffers reused from step to step.
+#[derive(Default)]
+pub(crate) struct Scratch {
+    normals: Vec<DVec3>,
+    forces: Vec<DVec3>,
+}
+
+/// What one step did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(crate) struct StepReport {
+    /// Vertices still moving after the step.
+    pub moving: usize,
+    /// The largest displacement in the step (mm): near zero at equilibrium, where the internal
+    /// forces balance the inflation of the vertices that have not frozen.
+    pub largest_move: f64,
+}
+
+/// Bisection halvings on a crossing step: locates the border to 2⁻¹⁶ of the step.
+const BISECTIONS: u32 = 16;
+
+impl Stepper<'_, '_> {
+    /// Moves every moving vertex once.
+    pub fn step(&self, surface: &mut Surface, scratch: &mut Scratch) -> StepReport {
+        surface.vertex_normals_into(&mut scratch.normals);
+        internal_forces(
+            surface,
+            &scratch.normals,
+            &self.weights,
+            self.edge_length,
+            &mut scratch.forces,
+        );
+        let (normals, forces) = (&scratch.normals, &scratch.forces);
+        let positions = surface.positions();
+        let states = surface.states();
+        let updates: Vec<Option<(DVec3, VertexState)>> = (0..surface.vertex_slots())
+            .into_par_iter()
+            .with_min_len(256)
+            .map(|v| {
+                let live = surface.is_vertex_live(v as u32);
+                (live && states[v] == VertexState::Moving)
+                    .then(|| self.move_vertex(positions[v], normals[v], forces[v]))
+            })
+            .collect();
+        let mut report = StepReport::default();
+        let (positions, states) = surface.positions_and_states_mut();
+        for (v, update) in updates.into_iter().enumerate() {
+            if let Some((p, state)) = update {
+                report.largest_move = report.largest_move.max((p - positions[v]).length());
+                positions[v] = p;
+                states[v] = state;
+                report.moving += usize::from(state == VertexState::Moving);
+            }
+        }
+        report
+    }
+
+    fn move_vertex(&self, x: DVec3, normal: DVec3, internal: DVec3) -> (DVec3, VertexState) {
+        let Some(here) = self.volume.sample_world(x) else {
+            return (x, VertexState::FrozenAtBorder);
+        };
+        let inflation = self.weights.inflation * self.window.inflation(here);
+        let mut dx = self.max_step * (inflation * normal + internal);
+        let length = dx.length();
+        if length > self.max_step {
+            dx *= self.max_step / length;
+        }
+        if !dx.is_finite() {
+            return (x, VertexState::FrozenAtBorder);
+        }
+        let side = self.window.contains(here);
+        let same_side = |p: DVec3| {
+            self.volume
+                .sample_world(p)
+                .is_some_and(|v| self.window.contains(v) == side)
+        };
+        let target = x + dx;
+        if same_side(target) {
+            return (target, VertexState::Moving);
+        }
+        // The border (or the volume's edge) lies in (x, target]: bisect onto it.
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..BISECTIONS {
+            let mid = 0.5 * (lo + hi);
+            if same_side(x + mid * dx) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        (x + lo * dx, VertexState::FrozenAtBorder)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Geometry;
+    use crate::volume::{Image, VoxelBuffer};
+
+    /// A bright ball of radius 6 around (10, 10, 10) on a dark background, with a linear ramp
+    /// of one voxel across its surface.
+    fn ball() -> Image {
+        let n = 21;
+        let values = (0..n * n * n)
+            .map(|i| {
+                let p = DVec3::new((i % n) as f64, (i / n % n) as f64, (i / (n * n)) as f64);
+                let d = (p - DVec3::splat(10.0)).length() - 6.0;
+                (100.0 + 1000.0 * (0.5 - d).clamp(0.0, 1.0)) as f32
+            })
+            .collect();
+        Image::new(VoxelBuffer::F32(values), [n, n, n], Geometry::identity()).unwrap()
+    }
+
+    #[test]
+    fn a_seed_sphere_inflates_to_the_border_and_freezes_on_it() {
+        let image = ball();
+        let volume = image.view();
+        let stepper = Stepper {
+            volume: &volume,
+            window: IntensityWindow {
+                reference: 1100.0,
+                tolerance: 500.0,
+            },
+            weights: ForceWeights::default(),
+            edge_length: 1.0,
+            max_step: 0.25,
+        };
+        let mut surface = Surface::icosphere(DVec3::splat(10.0), 1.0, 3).unwrap();
+        let mut scratch = Scratch::default();
+        let mut steps = 0;
+        loop {
+            let report = stepper.step(&mut surface, &mut scratch);
+            if report.moving == 0 || report.largest_move < 1e-6 {
+                break;
+            }
+            steps += 1;
+            assert!(steps < 200, "still moving after 200 steps: {report:?}");
+        }
+        // The window's border (600) is where the ramp crosses its middle: radius 6 (up to the
+        // trilinear interpolation of a radial ramp). Vertices that froze sit on it; a few may
+        // rest just inside, where the internal forces balance the inflation.
+        let mut frozen = 0;
+        for v in surface.live_vertices() {
+            let p = surface.positions()[v as usize];
+            let r = (p - DVec3::splat(10.0)).length();
+            assert!((r - 6.0).abs() < 0.15, "vertex {v} stopped at radius {r}");
+            if surface.states()[v as usize] == VertexState::FrozenAtBorder {
+                let value = volume.sample_world(p).unwrap();
+                assert!((value - 600.0).abs() < 1.0, "{value}");
+                frozen += 1;
+            }
+        }
+        assert!(frozen * 10 > surface.vertex_count() * 9, "{frozen} frozen");
+    }
+
+    #[test]
+    fn no_vertex_moves_more_than_the_step() {
+        let image = ball();
+        let volume = image.view();
+        let stepper = Stepper {
+            volume: &volume,
+            window: IntensityWindow {
+                reference: 1100.0,
+                tolerance: 500.0,
+            },
+            weights: ForceWeights {
+                inflation: 50.0,
+                ..ForceWeights::default()
+            },
+            edge_length: 1.0,
+            max_step: 0.25,
+        };
+        let mut surface = Surface::icosphere(DVec3::splat(10.0), 2.0, 2).unwrap();
+        let before = surface.positions().to_vec();
+        stepper.step(&mut surface, &mut Scratch::default());
+        for (a, b) in before.iter().zip(surface.positions()) {
+            assert!((*a - *b).length() <= 0.25 + 1e-12);
+        }
+    }
+
+    #[test]
+    fn vertices_at_the_volume_edge_freeze_inside_it() {
+        // Everything is foreground: the balloon stops at the volume's faces.
+        let image = Image::new(
+            VoxelBuffer::U8(vec![200; 8 * 8 * 8]),
+            [8, 8, 8],
+            Geometry::identity(),
+        )
+        .unwrap();
+        let volume = image.view();
+        let stepper = Stepper {
+            volume: &volume,
+            window: IntensityWindow {
+                reference: 200.0,
+                tolerance: 10.0,
+            },
+            weights: ForceWeights::default(),
+            edge_length: 1.0,
+            max_step: 0.25,
+        };
+        let mut surface = Surface::icosphere(DVec3::splat(3.5), 1.0, 2).unwrap();
+        let mut scratch = Scratch::default();
+        for _ in 0..100 {
+            stepper.step(&mut surface, &mut scratch);
+        }
+        assert!(surface
+            .states()
+            .iter()
+            .all(|s| *s == VertexState::FrozenAtBorder));
+        for p in surface.positions() {
+            assert!(p.min_element() >= 0.0 && p.max_element() <= 7.0, "{p}");
+        }
+    }
+}
