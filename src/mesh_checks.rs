@@ -193,7 +193,7 @@ impl DisjointSets {
 }
 
 /// Component label of every triangle, numbered 0.. in order of first appearance.
-fn triangle_components(tris: &[[u32; 3]], n_points: usize) -> Vec<u32> {
+pub(crate) fn triangle_components(tris: &[[u32; 3]], n_points: usize) -> Vec<u32> {
     let mut sets = DisjointSets::new(n_points);
     for &[a, b, c] in tris {
         sets.union(a, b);

@@ -81,6 +81,18 @@ pub fn signed_distance(
     geometry: &Geometry,
     options: &SignedDistanceOptions,
 ) -> Result<Image> {
+    let field = signed_distance_values(surface, inside_from, dims, geometry, options)?;
+    Image::new(VoxelBuffer::F64(field), dims, *geometry)
+}
+
+/// [`signed_distance`] as plain voxel values, i fastest.
+pub fn signed_distance_values(
+    surface: &TriMesh,
+    inside_from: &TriMesh,
+    dims: [usize; 3],
+    geometry: &Geometry,
+    options: &SignedDistanceOptions,
+) -> Result<Vec<f64>> {
     options.validate()?;
     let len = voxel_count(dims)?;
     let band = options.band_mm(geometry);
@@ -94,7 +106,7 @@ pub fn signed_distance(
                 *d = -*d;
             }
         });
-    Image::new(VoxelBuffer::F64(field), dims, *geometry)
+    Ok(field)
 }
 
 /// Distance from every voxel centre to the nearest triangle of `surface` where that is less than

@@ -7,5 +7,11 @@ pub mod forces;
 mod inflation;
 pub mod params;
 mod remesh;
+mod reparametrize;
 pub mod seed_statistics;
+mod segmenter;
 pub mod surface;
+
+pub use params::BalloonParams;
+pub use segmenter::{Phase, PhaseSeconds, ProgressCallback, SegmentationStats, Segmenter};
+pub use surface::VertexState;

@@ -1,0 +1,182 @@
+//! Re-parametrisation (paper, section 3; SPEC §1 step 6): the balloon with its
+//! self-intersecting triangles deleted is turned into a signed distance map on the voxel grid —
+//! distance to the remaining triangles, sign from the whole balloon (negative inside, where its
+//! winding number is positive, so overlapping lobes count as inside) — whose zero isosurface
+//! (marching cubes) is the new surface, with the topology the contacts implied.
+//!
+//! The map covers only the balloon's bounding box plus the distance band and a margin of two
+//! voxels, on the volume's own grid lines; beyond the volume it simply continues the grid, so
+//! a balloon pressed against the volume's edge still closes.
+
+use glam::DVec3;
+
+use super::surface::VertexState;
+use crate::error::{Error, Result};
+use crate::geometry::Geometry;
+use crate::marching_cubes::marching_cubes;
+use crate::mesh::TriMesh;
+use crate::mesh_checks;
+use crate::signed_distance::{signed_distance_values, SignedDistanceOptions};
+use crate::volume::VoxelBuffer;
+
+/// Exact voxel values of zero would put marching-cubes vertices on grid points and make
+/// degenerate triangles; they are moved this far (in mm) outward instead.
+const ZERO_NUDGE: f64 = 1e-9;
+
+/// The new surface of `mesh`, whose vertices have `states`, on the grid of `geometry`.
+pub(crate) fn reparametrize(
+    mesh: &TriMesh,
+    states: &[VertexState],
+    geometry: &Geometry,
+) -> Result<TriMesh> {
+    let kept: Vec<[u32; 3]> = mesh
+        .triangles()
+        .iter()
+        .copied()
+        .filter(|t| {
+            t.iter()
+                .all(|&v| states[v as usize] != VertexState::FrozenBySelfIntersection)
+        })
+        .collect();
+    let surface = TriMesh::new(mesh.points().to_vec(), kept)?;
+    let options = SignedDistanceOptions::default();
+    let (grid, dims) = covering_grid(mesh, geometry, options.band_voxels + 2.0)?;
+    let nudged: Vec<f64> = signed_distance_values(&surface, mesh, dims, &grid, &options)?
+        .into_iter()
+        .map(|v| if v == 0.0 { ZERO_NUDGE } else { v })
+        .collect();
+    let map = crate::volume::Image::new(VoxelBuffer::F64(nudged), dims, grid)?;
+    let isosurface = marching_cubes(&map.view(), 0.0)?;
+    Ok(without_cavities(isosurface))
+}
+
+/// The sub-grid of `geometry` (same spacing and direction, origin on a grid point) that covers
+/// the mesh's bounding box plus `margin_voxels` on every side.
+fn covering_grid(
+    mesh: &TriMesh,
+    geometry: &Geometry,
+    margin_voxels: f64,
+) -> Result<(Geometry, [usize; 3])> {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for &p in mesh.points() {
+        let index = geometry.world_to_index(p);
+        lo = lo.min(index);
+        hi = hi.max(index);
+    }
+    if !lo.is_finite() {
+        return Err(Error::internal("re-parametrisation of an empty balloon"));
+    }
+    let lo = (lo - margin_voxels).floor();
+    let hi = (hi + margin_voxels).ceil();
+    let size = hi - lo + 1.0;
+    let dims = [size.x as usize, size.y as usize, size.z as usize];
+    let origin = geometry.index_to_world(lo).to_array();
+    let grid = Geometry::new(geometry.spacing(), origin, geometry.direction())?;
+    Ok((grid, dims))
+}
+
+/// Drops the components that enclose negative volume: cavities, surfaces of voids inside the
+/// balloon that no balloon grown from a seed can have.
+fn without_cavities(mesh: TriMesh) -> TriMesh {
+    let labels = mesh_checks::triangle_components(mesh.triangles(), mesh.points().len());
+    let count = labels.iter().map(|&l| l as usize + 1).max().unwrap_or(0);
+    let mut volume = vec![0.0f64; count];
+    for (t, &label) in labels.iter().enumerate() {
+        let [a, b, c] = mesh.corners(t);
+        volume[label as usize] += a.dot(b.cross(c));
+    }
+    if volume.iter().all(|&v| v > 0.0) {
+        return mesh;
+    }
+    let (points, triangles) = mesh.into_parts();
+    let kept: Vec<[u32; 3]> = triangles
+        .into_iter()
+        .zip(&labels)
+        .filter(|(_, &l)| volume[l as usize] > 0.0)
+        .map(|(t, _)| t)
+        .collect();
+    compacted(points, kept)
+}
+
+/// The mesh without the points no triangle uses.
+fn compacted(points: Vec<glam::DVec3>, triangles: Vec<[u32; 3]>) -> TriMesh {
+    let mut new_index = vec![u32::MAX; points.len()];
+    let mut kept_points = Vec::new();
+    let triangles = triangles
+        .into_iter()
+        .map(|t| {
+            t.map(|v| {
+                if new_index[v as usize] == u32::MAX {
+                    new_index[v as usize] = kept_points.len() as u32;
+                    kept_points.push(points[v as usize]);
+                }
+                new_index[v as usize]
+            })
+        })
+        .collect();
+    TriMesh::new(kept_points, triangles).expect("a subset of a valid mesh is valid")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two_overlapping_spheres() -> TriMesh {
+        let a = TriMesh::icosphere(DVec3::new(-2.0, 0.0, 0.0), 3.0, 3);
+        let b = TriMesh::icosphere(DVec3::new(2.0, 0.0, 0.0), 3.0, 3);
+        let (mut points, mut triangles) = a.into_parts();
+        let offset = points.len() as u32;
+        points.extend_from_slice(b.points());
+        triangles.extend(b.triangles().iter().map(|t| t.map(|v| v + offset)));
+        TriMesh::new(points, triangles).unwrap()
+    }
+
+    #[test]
+    fn overlapping_lobes_merge_into_one_valid_surface() {
+        let mesh = two_overlapping_spheres();
+        let pairs = crate::self_intersection::self_intersections(&mesh);
+        assert!(!pairs.is_empty());
+        let mut states = vec![VertexState::Moving; mesh.points().len()];
+        for (a, b) in pairs {
+            for t in [a, b] {
+                for v in mesh.triangles()[t as usize] {
+                    states[v as usize] = VertexState::FrozenBySelfIntersection;
+                }
+            }
+        }
+        let g = Geometry::with_spacing([0.5, 0.5, 0.7], [0.0; 3]).unwrap();
+        let merged = reparametrize(&mesh, &states, &g).unwrap();
+        let report = mesh_checks::check(&merged);
+        assert!(report.is_valid_closed_surface(), "{report:?}");
+        assert_eq!(report.components, 1);
+        assert_eq!(report.genus(), Some(0));
+        assert!(crate::self_intersection::self_intersections(&merged).is_empty());
+        // The union of two balls of radius 3 whose centres are 4 apart.
+        let h: f64 = 3.0 - 2.0;
+        let cap = std::f64::consts::PI * h * h * (3.0 * 3.0 - h) / 3.0;
+        let union = 2.0 * (4.0 / 3.0 * std::f64::consts::PI * 27.0) - 2.0 * cap;
+        assert!(
+            (report.signed_volume - union).abs() / union < 0.03,
+            "{}",
+            report.signed_volume
+        );
+    }
+
+    #[test]
+    fn a_surface_without_contacts_comes_back_close_to_itself() {
+        let mesh = TriMesh::icosphere(DVec3::new(0.3, 0.1, -0.2), 4.0, 3);
+        let states = vec![VertexState::FrozenAtBorder; mesh.points().len()];
+        let g = Geometry::new(
+            [0.6, 0.6, 0.9],
+            [1.0, 2.0, 3.0],
+            crate::phantom::oblique_direction(),
+        )
+        .unwrap();
+        let again = reparametrize(&mesh, &states, &g).unwrap();
+        let report = mesh_checks::check(&again);
+        assert!(report.is_valid_closed_surface(), "{report:?}");
+        let before = mesh.signed_volume();
+        assert!((report.signed_volume - before).abs() / before < 0.02);
+    }
+}

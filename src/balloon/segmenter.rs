@@ -1,0 +1,555 @@
+//! The whole method of the paper (SPEC §1), as a segmenter that can be driven step by step
+//! (the C ABI's `balloon_step`, `balloon_freeze_self_intersections`, `balloon_reparametrize`)
+//! or run to completion (`segment`).
+//!
+//! `segment` inflates the seed spheres until equilibrium — every vertex frozen at the border or
+//! by a self-intersection, or no vertex moving measurably — remeshing as the balloon grows and
+//! searching for self-intersections every few steps. If the balloon met itself, it is
+//! re-parametrised (signed distance + marching cubes) and refined by a few more steps; that
+//! repeats while refinement makes new contacts. The result is checked — closed, 2-manifold,
+//! outward, free of self-intersections — before it is returned; when refinement cannot keep
+//! it free of contacts, the last marching-cubes surface is returned instead.
+//!
+//! Each segmenter has its own thread pool of the requested size, and every result is the
+//! same for any size.
+
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::forces::IntensityWindow;
+use super::inflation::{Scratch, StepReport, Stepper};
+use super::params::BalloonParams;
+use super::reparametrize::reparametrize;
+use super::seed_statistics::{self, SeedStatistics};
+use super::surface::{Surface, VertexState};
+use crate::error::{Error, Result};
+use crate::mesh::TriMesh;
+use crate::mesh_checks;
+use crate::self_intersection::{self_intersections, self_intersections_among};
+use crate::volume::Volume;
+
+/// Edges longer than this many target lengths are split, shorter than `COLLAPSE_BELOW`
+/// collapsed: a split leaves halves (0.75 L) above the collapse length, so work is not undone.
+const SPLIT_ABOVE: f64 = 1.5;
+const COLLAPSE_BELOW: f64 = 0.6;
+/// Steps between two remeshings: at a quarter voxel per step an edge of the growing balloon
+/// stretches by well under half its length in between.
+const REMESH_INTERVAL: u32 = 2;
+/// Equilibrium when no vertex moved more than this fraction of the step size.
+const STILL: f64 = 1e-3;
+
+/// The phase a segmenter is in, as progress callbacks see it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    Inflation,
+    SelfIntersection,
+    Reparametrization,
+    Refinement,
+    Validation,
+}
+
+impl Phase {
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::Inflation => "inflation",
+            Phase::SelfIntersection => "self-intersection",
+            Phase::Reparametrization => "reparametrization",
+            Phase::Refinement => "refinement",
+            Phase::Validation => "validation",
+        }
+    }
+}
+
+/// Called with the fraction done (0–1) and the phase; returning `false` cancels.
+pub type ProgressCallback<'p> = Box<dyn FnMut(f64, Phase) -> bool + 'p>;
+
+/// Seconds spent per phase.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PhaseSeconds {
+    pub inflation: f64,
+    pub self_intersection: f64,
+    pub reparametrization: f64,
+    pub refinement: f64,
+    pub validation: f64,
+}
+
+impl PhaseSeconds {
+    pub fn total(&self) -> f64 {
+        self.inflation
+            + self.self_intersection
+            + self.reparametrization
+            + self.refinement
+            + self.validation
+    }
+
+    fn add(&mut self, phase: Phase, seconds: f64) {
+        *match phase {
+            Phase::Inflation => &mut self.inflation,
+            Phase::SelfIntersection => &mut self.self_intersection,
+            Phase::Reparametrization => &mut self.reparametrization,
+            Phase::Refinement => &mut self.refinement,
+            Phase::Validation => &mut self.validation,
+        } += seconds;
+    }
+}
+
+/// What a run did, besides the mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegmentationStats {
+    pub reference_intensity: f64,
+    pub tolerance: f64,
+    /// The estimate behind the defaults, when reference or tolerance were not given.
+    pub seed_statistics: Option<SeedStatistics>,
+    pub edge_length: f64,
+    pub iterations: u32,
+    pub reparametrizations: u32,
+    pub seconds: PhaseSeconds,
+}
+
+/// A balloon in a volume.
+pub struct Segmenter<'v, 'p> {
+    volume: Volume<'v>,
+    params: BalloonParams,
+    window: IntensityWindow,
+    edge_length: f64,
+    surface: Surface,
+    scratch: Scratch,
+    stats: SegmentationStats,
+    pool: rayon::ThreadPool,
+    progress: Option<ProgressCallback<'p>>,
+}
+
+impl<'v, 'p> Segmenter<'v, 'p> {
+    /// A balloon of about one voxel's radius at `seed` (world mm). Reference intensity and
+    /// tolerance not given in `params` are estimated around this seed.
+    pub fn new(volume: Volume<'v>, params: BalloonParams, seed: DVec3) -> Result<Self> {
+        params.validate()?;
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(params.threads)
+            .build()
+            .map_err(|e| Error::invalid_argument(format!("cannot start the threads: {e}")))?;
+        let geometry = *volume.geometry();
+        let estimate = match (params.reference, params.tolerance) {
+            (Some(_), Some(_)) => None,
+            _ => Some(pool.install(|| seed_statistics::estimate(&volume, seed))?),
+        };
+        let window = IntensityWindow {
+            reference: params
+                .reference
+                .or(estimate.map(|s| s.reference))
+                .expect("estimated when not given"),
+            tolerance: params
+                .tolerance
+                .or(estimate.map(|s| s.tolerance))
+                .expect("estimated when not given"),
+        };
+        if window.tolerance.is_nan() || window.tolerance <= 0.0 {
+            return Err(Error::invalid_argument(format!(
+                "the estimated tolerance is {}: the structure and its surroundings look alike \
+                 around the seed; give the tolerance explicitly",
+                window.tolerance
+            )));
+        }
+        let edge_length = params.edge_length.unwrap_or(geometry.mean_spacing());
+        let segmenter = Segmenter {
+            volume,
+            window,
+            edge_length,
+            surface: Surface::icosphere(seed, geometry.mean_spacing(), 1)?,
+            scratch: Scratch::default(),
+            stats: SegmentationStats {
+                reference_intensity: window.reference,
+                tolerance: window.tolerance,
+                seed_statistics: estimate,
+                edge_length,
+                iterations: 0,
+                reparametrizations: 0,
+                seconds: PhaseSeconds::default(),
+            },
+            pool,
+            progress: None,
+            params,
+        };
+        segmenter.check_seed(seed)?;
+        Ok(segmenter)
+    }
+
+    /// Another seed sphere, for a structure the first seed does not reach.
+    pub fn add_seed(&mut self, seed: DVec3) -> Result<()> {
+        self.check_seed(seed)?;
+        let sphere = Surface::icosphere(seed, self.volume.geometry().mean_spacing(), 1)?;
+        let (mesh, states) = self.mesh();
+        let (mut points, mut triangles) = mesh.into_parts();
+        let offset = points.len() as u32;
+        let (sphere_points, sphere_triangles) = sphere.to_mesh()?.into_parts();
+        points.extend(sphere_points);
+        triangles.extend(sphere_triangles.iter().map(|t| t.map(|v| v + offset)));
+        let mut surface = Surface::from_mesh(&TriMesh::new(points, triangles)?)?;
+        surface.states_mut()[..states.len()].copy_from_slice(&states);
+        self.surface = surface;
+        Ok(())
+    }
+
+    fn check_seed(&self, seed: DVec3) -> Result<()> {
+        match self.volume.sample_world(seed) {
+            None => Err(Error::invalid_argument(format!(
+                "the seed {seed} mm is outside the volume (voxel index {}); give it in world \
+                 millimetres inside the image",
+                self.volume.geometry().world_to_index(seed)
+            ))),
+            Some(v) if !self.window.contains(v) => Err(Error::invalid_argument(format!(
+                "the intensity at the seed {seed} mm is {v}, outside the window {} ± {}: the seed \
+                 is on the background or the window is too narrow; move the seed into the \
+                 structure or widen the tolerance",
+                self.window.reference, self.window.tolerance
+            ))),
+            Some(_) => Ok(()),
+        }
+    }
+
+    /// Reports progress to the callback, if any; cancels when it says so.
+    pub fn set_progress(&mut self, callback: Option<ProgressCallback<'p>>) {
+        self.progress = callback;
+    }
+
+    fn report(&mut self, fraction: f64, phase: Phase) -> Result<()> {
+        let go_on = match &mut self.progress {
+            Some(callback) => callback(fraction.clamp(0.0, 1.0), phase),
+            None => true,
+        };
+        if go_on {
+            Ok(())
+        } else {
+            Err(Error::cancelled(format!(
+                "cancelled by the progress callback during {}",
+                phase.name()
+            )))
+        }
+    }
+
+    pub fn stats(&self) -> &SegmentationStats {
+        &self.stats
+    }
+
+    /// The current balloon as a compact mesh (world mm) with the state of each vertex.
+    pub fn mesh(&self) -> (TriMesh, Vec<VertexState>) {
+        let (mesh, map) = self
+            .surface
+            .to_mesh_with_map()
+            .expect("the balloon's positions stay finite");
+        let mut states = vec![VertexState::Moving; mesh.points().len()];
+        for (old, &new) in map.iter().enumerate() {
+            if new != u32::MAX {
+                states[new as usize] = self.surface.states()[old];
+            }
+        }
+        (mesh, states)
+    }
+
+    /// Up to `iterations` steps of inflation (remeshing and self-intersection searches
+    /// included); stops early at equilibrium. Returns the number of vertices still moving.
+    pub fn step(&mut self, iterations: u32) -> Result<usize> {
+        let mut moving = self.surface.vertex_count();
+        for _ in 0..iterations {
+            let report = self.one_step(Phase::Inflation)?;
+            moving = report.moving;
+            if self.at_equilibrium(&report) {
+                break;
+            }
+        }
+        Ok(moving)
+    }
+
+    fn at_equilibrium(&self, report: &StepReport) -> bool {
+        let max_step = self.params.step_fraction * self.volume.geometry().min_spacing();
+        report.moving == 0 || report.largest_move < STILL * max_step
+    }
+
+    fn one_step(&mut self, phase: Phase) -> Result<StepReport> {
+        let start = Instant::now();
+        let stepper = Stepper {
+            volume: &self.volume,
+            window: self.window,
+            weights: self.params.weights,
+            edge_length: self.edge_length,
+            max_step: self.params.step_fraction * self.volume.geometry().min_spacing(),
+        };
+        let (surface, scratch) = (&mut self.surface, &mut self.scratch);
+        let mut report = self.pool.install(|| stepper.step(surface, scratch));
+        self.stats.iterations += 1;
+        if self.stats.iterations % REMESH_INTERVAL == 0 {
+            self.remesh()?;
+        }
+        self.stats.seconds.add(phase, start.elapsed().as_secs_f64());
+        if self.stats.iterations % self.params.self_intersection_interval == 0 {
+            self.freeze_self_intersections()?;
+            report.moving = self.moving_vertices();
+        }
+        let total = self.surface.vertex_count().max(1);
+        let done = 1.0 - report.moving as f64 / total as f64;
+        let fraction = match phase {
+            Phase::Refinement => 0.8 + 0.15 * done,
+            _ => 0.75 * done,
+        };
+        self.report(fraction, phase)?;
+        Ok(report)
+    }
+
+    fn moving_vertices(&self) -> usize {
+        self.surface
+            .live_vertices()
+            .filter(|&v| self.surface.states()[v as usize] == VertexState::Moving)
+            .count()
+    }
+
+    fn remesh(&mut self) -> Result<()> {
+        let (split, collapse) = (
+            SPLIT_ABOVE * self.edge_length,
+            COLLAPSE_BELOW * self.edge_length,
+        );
+        let surface = &mut self.surface;
+        self.pool.install(|| -> Result<()> {
+            surface.split_long_edges(split)?;
+            surface.collapse_short_edges(collapse, split)?;
+            surface.flip_edges_for_valence();
+            Ok(())
+        })?;
+        if self.surface.vertex_count() > self.params.max_vertices {
+            return Err(Error::leak(format!(
+                "the balloon grew past {} vertices: it has most likely leaked out of the \
+                 structure through a gap in its wall; lower the tolerance (now {:.4} around \
+                 {:.4}), raise the bending weight, or raise max_vertices if the structure is \
+                 really that large",
+                self.params.max_vertices, self.window.tolerance, self.window.reference
+            )));
+        }
+        if self.surface.vertex_slots() > 2 * self.surface.vertex_count() {
+            self.surface.compact();
+        }
+        Ok(())
+    }
+
+    /// Freezes the vertices of every triangle that intersects another (paper, section 3);
+    /// returns how many vertices were newly frozen.
+    pub fn freeze_self_intersections(&mut self) -> Result<usize> {
+        let start = Instant::now();
+        self.surface.compact();
+        let mesh = self.surface.to_mesh()?;
+        let states = self.surface.states();
+        let active: Vec<bool> = mesh
+            .triangles()
+            .iter()
+            .map(|t| t.iter().any(|&v| states[v as usize] == VertexState::Moving))
+            .collect();
+        let pairs = self
+            .pool
+            .install(|| self_intersections_among(&mesh, &active))?;
+        let mut frozen = 0;
+        let states = self.surface.states_mut();
+        for (a, b) in pairs {
+            for t in [a, b] {
+                for v in mesh.triangles()[t as usize] {
+                    let state = &mut states[v as usize];
+                    if *state != VertexState::FrozenBySelfIntersection {
+                        *state = VertexState::FrozenBySelfIntersection;
+                        frozen += 1;
+                    }
+                }
+            }
+        }
+        self.stats
+            .seconds
+            .add(Phase::SelfIntersection, start.elapsed().as_secs_f64());
+        Ok(frozen)
+    }
+
+    /// Replaces the balloon by the zero isosurface of its signed distance map, without the
+    /// self-intersecting triangles (paper, section 3). Every vertex moves again afterwards.
+    pub fn reparametrize(&mut self) -> Result<()> {
+        let start = Instant::now();
+        self.report(0.75, Phase::Reparametrization)?;
+        let (mesh, states) = self.mesh();
+        let geometry = *self.volume.geometry();
+        let repaired = self
+            .pool
+            .install(|| reparametrize(&mesh, &states, &geometry))?;
+        self.surface = Surface::from_mesh(&repaired)?;
+        self.remesh()?;
+        self.stats.reparametrizations += 1;
+        self.stats
+            .seconds
+            .add(Phase::Reparametrization, start.elapsed().as_secs_f64());
+        Ok(())
+    }
+
+    fn has_self_intersections(&self) -> bool {
+        self.surface
+            .states()
+            .contains(&VertexState::FrozenBySelfIntersection)
+    }
+
+    /// The whole method to completion: the final mesh (world mm, outward, closed, 2-manifold,
+    /// without self-intersections) and the state of each of its vertices.
+    pub fn segment(&mut self) -> Result<(TriMesh, Vec<VertexState>)> {
+        let mut budget = self.params.max_iterations;
+        while budget > 0 {
+            let report = self.one_step(Phase::Inflation)?;
+            budget -= 1;
+            if self.at_equilibrium(&report) {
+                break;
+            }
+        }
+        self.freeze_self_intersections()?;
+        while self.has_self_intersections()
+            && self.stats.reparametrizations < self.params.max_reparametrizations
+        {
+            self.reparametrize()?;
+            for _ in 0..self.params.refinement_iterations {
+                let report = self.one_step(Phase::Refinement)?;
+                if self.at_equilibrium(&report) {
+                    break;
+                }
+            }
+            self.freeze_self_intersections()?;
+        }
+        self.validated()
+    }
+
+    /// The current mesh if it meets the guarantees; otherwise one more re-parametrisation
+    /// (without refinement, whose marching-cubes surface has no contacts), checked again.
+    fn validated(&mut self) -> Result<(TriMesh, Vec<VertexState>)> {
+        let start = Instant::now();
+        self.report(0.95, Phase::Validation)?;
+        let mut repaired = false;
+        loop {
+            let (mesh, states) = self.mesh();
+            let report = mesh_checks::check(&mesh);
+            let pairs = self.pool.install(|| self_intersections(&mesh));
+            if report.is_valid_closed_surface() && pairs.is_empty() {
+                self.stats
+                    .seconds
+                    .add(Phase::Validation, start.elapsed().as_secs_f64());
+                self.report(1.0, Phase::Validation)?;
+                return Ok((mesh, states));
+            }
+            if repaired {
+                return Err(Error::internal(format!(
+                    "the segmentation failed its own checks (closed {}, manifold {}, outward {}, \
+                     {} self-intersecting pairs) even after re-parametrisation",
+                    report.closed(),
+                    report.manifold(),
+                    report.outward(),
+                    pairs.len()
+                )));
+            }
+            self.freeze_self_intersections()?;
+            self.reparametrize()?;
+            repaired = true;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::phantom::{self, PhantomOptions, Shape};
+
+    fn run(shape: Shape, options: &PhantomOptions) -> (TriMesh, SegmentationStats) {
+        let p = phantom::render(shape, options).unwrap();
+        let mut s =
+            Segmenter::new(p.image.view(), BalloonParams::default(), p.seed_world()).unwrap();
+        let (mesh, _) = s.segment().unwrap();
+        (mesh, s.stats().clone())
+    }
+
+    #[test]
+    fn sphere_phantom_gives_a_valid_sphere_of_the_right_size() {
+        let (mesh, stats) = run(Shape::Sphere, &PhantomOptions::default());
+        let report = mesh_checks::check(&mesh);
+        assert!(report.is_valid_closed_surface(), "{report:?}");
+        assert_eq!(report.genus(), Some(0));
+        let exact = 4.0 / 3.0 * std::f64::consts::PI * 1000.0;
+        assert!(
+            (report.signed_volume - exact).abs() / exact < 0.03,
+            "volume {} vs {exact}; {stats:?}",
+            report.signed_volume
+        );
+    }
+
+    #[test]
+    fn torus_phantom_meets_itself_and_comes_out_with_genus_one() {
+        let (mesh, stats) = run(Shape::Torus, &PhantomOptions::default());
+        let report = mesh_checks::check(&mesh);
+        assert!(report.is_valid_closed_surface(), "{report:?}");
+        assert!(stats.reparametrizations >= 1, "{stats:?}");
+        assert_eq!(report.genus(), Some(1), "{report:?} {stats:?}");
+    }
+
+    #[test]
+    fn same_mesh_for_one_and_two_threads() {
+        let p = phantom::render(
+            Shape::YVessel,
+            &PhantomOptions {
+                noise: 0.1,
+                ..PhantomOptions::default()
+            },
+        )
+        .unwrap();
+        let run = |threads| {
+            let params = BalloonParams {
+                threads,
+                ..BalloonParams::default()
+            };
+            Segmenter::new(p.image.view(), params, p.seed_world())
+                .unwrap()
+                .segment()
+                .unwrap()
+        };
+        assert_eq!(run(1), run(2));
+    }
+
+    #[test]
+    fn bad_seeds_and_cancel_are_clear_errors() {
+        let p = phantom::render(Shape::Sphere, &PhantomOptions::default()).unwrap();
+        let outside = Segmenter::new(p.image.view(), BalloonParams::default(), DVec3::splat(1e3));
+        assert!(outside.err().unwrap().message().contains("outside"));
+        let params = BalloonParams {
+            reference: Some(1100.0),
+            tolerance: Some(100.0),
+            ..BalloonParams::default()
+        };
+        let corner = p.image.geometry().index_to_world(DVec3::ZERO);
+        let background = Segmenter::new(p.image.view(), params, corner);
+        assert!(background.err().unwrap().message().contains("background"));
+
+        let mut s =
+            Segmenter::new(p.image.view(), BalloonParams::default(), p.seed_world()).unwrap();
+        let mut calls = 0;
+        s.set_progress(Some(Box::new(move |_, _| {
+            calls += 1;
+            calls < 5
+        })));
+        let e = s.segment().unwrap_err();
+        assert_eq!(e.kind(), crate::ErrorKind::Cancelled);
+        // The balloon is still there, consistent, after the cancel.
+        let (mesh, states) = s.mesh();
+        assert_eq!(mesh.points().len(), states.len());
+        assert!(mesh_checks::check(&mesh).closed());
+    }
+
+    #[test]
+    fn everything_foreground_hits_the_vertex_limit_as_a_leak() {
+        let p = phantom::render(Shape::Sphere, &PhantomOptions::default()).unwrap();
+        let params = BalloonParams {
+            reference: Some(600.0),
+            tolerance: Some(1e6),
+            max_vertices: 2000,
+            ..BalloonParams::default()
+        };
+        let mut s = Segmenter::new(p.image.view(), params, p.seed_world()).unwrap();
+        let e = s.segment().unwrap_err();
+        assert_eq!(e.kind(), crate::ErrorKind::Leak, "{e}");
+        assert!(e.message().contains("tolerance"));
+    }
+}
