@@ -275,32 +275,8 @@ fn link_components(link: &[(u32, u32)]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::test_shapes::{cube, icosphere};
+    use crate::mesh::test_shapes::{cube, icosphere, torus};
     use glam::DVec3;
-
-    /// A torus of `n × m` quads, outward-oriented, genus 1.
-    fn torus(n: usize, m: usize) -> TriMesh {
-        let (big, small) = (3.0, 1.0);
-        let mut points = Vec::new();
-        for i in 0..n {
-            for j in 0..m {
-                let u = i as f64 / n as f64 * std::f64::consts::TAU;
-                let v = j as f64 / m as f64 * std::f64::consts::TAU;
-                let r = big + small * v.cos();
-                points.push(DVec3::new(r * u.cos(), r * u.sin(), small * v.sin()));
-            }
-        }
-        let id = |i: usize, j: usize| ((i % n) * m + (j % m)) as u32;
-        let mut triangles = Vec::new();
-        for i in 0..n {
-            for j in 0..m {
-                let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
-                triangles.push([a, b, c]);
-                triangles.push([a, c, d]);
-            }
-        }
-        TriMesh::new(points, triangles).unwrap()
-    }
 
     #[test]
     fn sphere_is_a_valid_closed_surface_of_genus_zero() {
@@ -313,7 +289,7 @@ mod tests {
 
     #[test]
     fn torus_has_genus_one_and_positive_volume() {
-        let r = check(&torus(48, 24));
+        let r = check(&torus(DVec3::ZERO, 3.0, 1.0, 48, 24));
         assert!(r.is_valid_closed_surface(), "{r:?}");
         assert_eq!(r.euler_characteristic, 0);
         assert_eq!(r.genus(), Some(1));
@@ -382,7 +358,7 @@ mod tests {
 
     #[test]
     fn separate_shapes_count_as_components_and_genus_adds_up() {
-        let (mut points, mut tris) = torus(16, 8).into_parts();
+        let (mut points, mut tris) = torus(DVec3::ZERO, 3.0, 1.0, 16, 8).into_parts();
         let s = icosphere(DVec3::new(10.0, 0.0, 0.0), 1.0, 1);
         let offset = points.len() as u32;
         points.extend_from_slice(s.points());

@@ -313,7 +313,7 @@ fn quadratic_roots(a: f64, half_b: f64, c: f64) -> Option<(f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::test_shapes::{cube, icosphere};
+    use crate::mesh::test_shapes::{cube, icosphere, torus};
     use crate::winding_number::inside_mask;
     use crate::winding_number::test_fixtures::*;
 

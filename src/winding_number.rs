@@ -263,28 +263,6 @@ pub(crate) mod test_fixtures {
         TriMesh::new(points, triangles).unwrap()
     }
 
-    /// A torus around the z axis through `c`, radii `major` and `minor`, `n × m` quads, outward.
-    pub fn torus(c: DVec3, major: f64, minor: f64, n: u32, m: u32) -> TriMesh {
-        let mut points = Vec::new();
-        for a in 0..n {
-            let (sa, ca) = (std::f64::consts::TAU * a as f64 / n as f64).sin_cos();
-            for b in 0..m {
-                let (sb, cb) = (std::f64::consts::TAU * b as f64 / m as f64).sin_cos();
-                let ring = major + minor * cb;
-                points.push(c + DVec3::new(ring * ca, ring * sa, minor * sb));
-            }
-        }
-        let id = |a: u32, b: u32| (a % n) * m + b % m;
-        let mut triangles = Vec::new();
-        for a in 0..n {
-            for b in 0..m {
-                let (p, q, r, s) = (id(a, b), id(a + 1, b), id(a + 1, b + 1), id(a, b + 1));
-                triangles.extend([[p, q, r], [p, r, s]]);
-            }
-        }
-        TriMesh::new(points, triangles).unwrap()
-    }
-
     /// A left-handed, rotated, anisotropic grid.
     pub fn oblique_geometry() -> Geometry {
         let (s, c) = 0.4f64.sin_cos();

@@ -531,7 +531,8 @@ impl Surface {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::balloon::surface::tests::{assert_valid, torus};
+    use crate::balloon::surface::tests::assert_valid;
+    use crate::mesh::test_shapes::torus;
     use crate::mesh::TriMesh;
 
     /// splitmix64: a seeded, dependency-free source of test randomness.
@@ -937,9 +938,13 @@ mod tests {
     #[test]
     fn random_remeshing_keeps_a_torus_of_genus_one() {
         for seed in 10..13 {
-            random_session(seed, Surface::from_mesh(&torus(16, 8)).unwrap(), 0);
+            random_session(
+                seed,
+                Surface::from_mesh(&torus(DVec3::ZERO, 3.0, 1.0, 16, 8)).unwrap(),
+                0,
+            );
         }
-        let mut s = Surface::from_mesh(&torus(16, 8)).unwrap();
+        let mut s = Surface::from_mesh(&torus(DVec3::ZERO, 3.0, 1.0, 16, 8)).unwrap();
         s.split_long_edges(0.5).unwrap();
         while s.collapse_short_edges(1e3, 1e3).unwrap() > 0 {}
         assert_valid(&s, 0);

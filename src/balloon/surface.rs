@@ -576,32 +576,8 @@ impl Iterator for OutgoingHalfEdges<'_> {
 #[cfg(test)]
 pub(super) mod tests {
     use super::*;
-    use crate::mesh::test_shapes::{cube, icosphere};
+    use crate::mesh::test_shapes::{cube, icosphere, torus};
     use crate::mesh_checks::check;
-
-    /// A torus of `n × m` quads, outward-oriented, genus 1.
-    pub(in crate::balloon) fn torus(n: usize, m: usize) -> TriMesh {
-        let (big, small) = (3.0, 1.0);
-        let mut points = Vec::new();
-        for i in 0..n {
-            for j in 0..m {
-                let u = i as f64 / n as f64 * std::f64::consts::TAU;
-                let v = j as f64 / m as f64 * std::f64::consts::TAU;
-                let r = big + small * v.cos();
-                points.push(DVec3::new(r * u.cos(), r * u.sin(), small * v.sin()));
-            }
-        }
-        let id = |i: usize, j: usize| ((i % n) * m + (j % m)) as u32;
-        let mut triangles = Vec::new();
-        for i in 0..n {
-            for j in 0..m {
-                let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
-                triangles.push([a, b, c]);
-                triangles.push([a, c, d]);
-            }
-        }
-        TriMesh::new(points, triangles).unwrap()
-    }
 
     /// Invariants hold and the exported mesh is a closed oriented manifold of Euler
     /// characteristic `euler`.
@@ -698,7 +674,7 @@ pub(super) mod tests {
 
     #[test]
     fn torus_is_accepted_with_euler_characteristic_zero() {
-        let s = Surface::from_mesh(&torus(12, 8)).unwrap();
+        let s = Surface::from_mesh(&torus(DVec3::ZERO, 3.0, 1.0, 12, 8)).unwrap();
         assert_valid(&s, 0);
         assert!(s.live_vertices().all(|v| s.valence(v) == 6));
     }
