@@ -6,6 +6,7 @@ mod demo;
 mod distance;
 mod isosurface;
 mod phantom;
+mod segment;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -28,6 +29,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Segment the structure around the seed(s): the balloon, grown and repaired, as a mesh.
+    Segment(segment::Args),
     /// Marching cubes of a volume at a level, written as a welded mesh in world mm.
     Isosurface(isosurface::Args),
     /// Topology and geometry of a mesh as JSON: closed, manifold, oriented, genus, ...
@@ -50,6 +53,7 @@ fn main() -> ExitCode {
         Err(e) => return fail(&format!("cannot start {} threads: {e}", cli.threads)),
     };
     let result = pool.install(|| match cli.command {
+        Command::Segment(args) => segment::run(&args, cli.threads),
         Command::Isosurface(args) => isosurface::run(&args),
         Command::Check(args) => check::run(&args),
         Command::Distance(args) => distance::run(&args),

@@ -1,0 +1,195 @@
+//! `balloonseg segment INPUT --seed X,Y,Z [--seed ...] [--index] [--ras] -o OUTPUT [--stats F]`
+
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use balloonseg::balloon::{BalloonParams, Phase, SegmentationStats, Segmenter, VertexState};
+use balloonseg::io::{self, PointData, PointValues};
+use balloonseg::{mesh_checks, self_intersection::self_intersections, Error, Geometry, Result};
+use glam::DVec3;
+use serde_json::json;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Input volume (.mha, .mhd, .nrrd, .nhdr, .nii, .nii.gz, .vti, .vtk).
+    input: PathBuf,
+    /// A seed inside the structure, "x,y,z" in world mm (LPS); repeat for more seeds.
+    #[arg(long = "seed", required = true, value_parser = crate::parse_triple, allow_hyphen_values = true)]
+    seeds: Vec<[f64; 3]>,
+    /// Seeds are voxel indices i,j,k instead of world coordinates.
+    #[arg(long, conflicts_with = "ras")]
+    index: bool,
+    /// Seeds are in RAS world coordinates, as 3D Slicer shows them.
+    #[arg(long)]
+    ras: bool,
+    #[command(flatten)]
+    output: crate::Output,
+    /// Write run statistics as JSON to this file.
+    #[arg(long)]
+    stats: Option<PathBuf>,
+    /// Intensity of the structure (default: estimated around the first seed).
+    #[arg(long, allow_negative_numbers = true)]
+    reference: Option<f64>,
+    /// Half-width of the intensity window (default: half the contrast to the surroundings).
+    #[arg(long)]
+    tolerance: Option<f64>,
+    /// Target edge length in mm (default: the mean voxel spacing).
+    #[arg(long)]
+    edge_length: Option<f64>,
+    /// Weight of the elastic (spring) force.
+    #[arg(long)]
+    elastic: Option<f64>,
+    /// Weight of the bending force.
+    #[arg(long)]
+    bending: Option<f64>,
+    /// Weight of the inflation force.
+    #[arg(long)]
+    inflation: Option<f64>,
+    /// Inflation steps before the balloon is taken as it is.
+    #[arg(long)]
+    max_iterations: Option<u32>,
+    /// Steps between self-intersection searches.
+    #[arg(long)]
+    self_intersection_interval: Option<u32>,
+    /// Deformation steps after each re-parametrisation.
+    #[arg(long)]
+    refinement_iterations: Option<u32>,
+    /// Leak guard: growing past this many vertices is an error.
+    #[arg(long)]
+    max_vertices: Option<usize>,
+}
+
+impl Args {
+    fn params(&self, threads: usize) -> BalloonParams {
+        let d = BalloonParams::default();
+        BalloonParams {
+            reference: self.reference,
+            tolerance: self.tolerance,
+            edge_length: self.edge_length,
+            weights: balloonseg::balloon::forces::ForceWeights {
+                elastic: self.elastic.unwrap_or(d.weights.elastic),
+                bending: self.bending.unwrap_or(d.weights.bending),
+                inflation: self.inflation.unwrap_or(d.weights.inflation),
+            },
+            max_iterations: self.max_iterations.unwrap_or(d.max_iterations),
+            self_intersection_interval: self
+                .self_intersection_interval
+                .unwrap_or(d.self_intersection_interval),
+            refinement_iterations: self
+                .refinement_iterations
+                .unwrap_or(d.refinement_iterations),
+            max_vertices: self.max_vertices.unwrap_or(d.max_vertices),
+            threads,
+            ..d
+        }
+    }
+
+    fn seed_world(&self, seed: [f64; 3], geometry: &Geometry) -> DVec3 {
+        let s = DVec3::from(seed);
+        if self.index {
+            geometry.index_to_world(s)
+        } else if self.ras {
+            DVec3::new(-s.x, -s.y, s.z)
+        } else {
+            s
+        }
+    }
+}
+
+pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
+    let start = Instant::now();
+    let image = io::read_image(&args.input)?;
+    let geometry = *image.geometry();
+    let seeds: Vec<DVec3> = args
+        .seeds
+        .iter()
+        .map(|&s| args.seed_world(s, &geometry))
+        .collect();
+    let mut segmenter = Segmenter::new(image.view(), args.params(threads), seeds[0])?;
+    for &seed in &seeds[1..] {
+        segmenter.add_seed(seed)?;
+    }
+    if std::io::stderr().is_terminal() {
+        segmenter.set_progress(Some(Box::new(draw_progress)));
+    }
+    let result = segmenter.segment();
+    if std::io::stderr().is_terminal() {
+        eprintln!();
+    }
+    let (mesh, states) = result?;
+    let state_bytes: Vec<u8> = states.iter().map(|&s| s as u8).collect();
+    let point_data = [PointData {
+        name: "vertex_state",
+        values: PointValues::U8(&state_bytes),
+    }];
+    io::write_mesh(&args.output.path, &mesh, &point_data)?;
+    if let Some(path) = &args.stats {
+        let stats = stats_json(&mesh, segmenter.stats(), start.elapsed().as_secs_f64());
+        std::fs::write(
+            path,
+            serde_json::to_string_pretty(&stats).expect("plain JSON values"),
+        )
+        .map_err(|e| Error::io(format!("cannot write {}: {e}", crate::shown(path))))?;
+    }
+    let moving = states.iter().filter(|&&s| s == VertexState::Moving).count();
+    eprintln!(
+        "{}: {} points, {} triangles ({moving} vertices still moving)",
+        crate::shown(&args.output.path),
+        mesh.points().len(),
+        mesh.triangles().len()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn draw_progress(fraction: f64, phase: Phase) -> bool {
+    let width = 30;
+    let filled = (fraction * width as f64).round() as usize;
+    let mut err = std::io::stderr();
+    let _ = write!(
+        err,
+        "\r[{}{}] {:>3.0}% {:<18}",
+        "#".repeat(filled),
+        " ".repeat(width - filled),
+        fraction * 100.0,
+        phase.name()
+    );
+    let _ = err.flush();
+    true
+}
+
+fn stats_json(
+    mesh: &balloonseg::TriMesh,
+    stats: &SegmentationStats,
+    total: f64,
+) -> serde_json::Value {
+    let report = mesh_checks::check(mesh);
+    let s = &stats.seconds;
+    json!({
+        "vertices": report.vertices,
+        "triangles": report.triangles,
+        "euler_characteristic": report.euler_characteristic,
+        "genus": report.genus(),
+        "components": report.components,
+        "closed": report.closed(),
+        "manifold": report.manifold(),
+        "outward": report.outward(),
+        "self_intersecting_pairs": self_intersections(mesh).len(),
+        "iterations": stats.iterations,
+        "reparametrizations": stats.reparametrizations,
+        "volume_mm3": report.signed_volume,
+        "area_mm2": report.area,
+        "reference_intensity": stats.reference_intensity,
+        "tolerance": stats.tolerance,
+        "edge_length_mm": stats.edge_length,
+        "seconds": {
+            "inflation": s.inflation,
+            "self_intersection": s.self_intersection,
+            "reparametrization": s.reparametrization,
+            "refinement": s.refinement,
+            "validation": s.validation,
+            "total": total,
+        },
+    })
+}
