@@ -47,9 +47,12 @@ pub fn self_intersections_among(mesh: &TriMesh, active: &[bool]) -> Result<Vec<(
 }
 
 fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> {
-    let count = u32::try_from(mesh.triangles().len())
-        .expect("more than 2^32 triangles: the pair ids of the result cannot hold them");
-    let faces: Vec<Face> = (0..count)
+    // Unreachable in practice: 2^32 triangles take 48 GiB of indices alone.
+    assert!(
+        u32::try_from(mesh.triangles().len()).is_ok(),
+        "more than 2^32 triangles: the pair ids of the result cannot hold them"
+    );
+    let faces: Vec<Face> = (0..mesh.triangles().len() as u32)
         .into_par_iter()
         .map(|t| Face::new(mesh, t))
         .collect();
@@ -58,27 +61,31 @@ fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> 
         .filter(|f| f.plane.is_degenerate())
         .map(|f| f.id)
         .collect();
-    let faces: Vec<Face> = if degenerate.is_empty() {
-        faces
-    } else {
-        faces
-            .into_par_iter()
-            .filter(|f| !f.plane.is_degenerate())
-            .collect()
+    // The non-degenerate faces in Morton order of their boxes' lower corners, the order in which
+    // the spatial hash visits them, so that the exact tests read memory almost sequentially
+    // instead of jumping around the mesh.
+    let order = {
+        let mut kept: Vec<u32> = (0..faces.len() as u32).collect();
+        if !degenerate.is_empty() {
+            kept.retain(|&k| !faces[k as usize].plane.is_degenerate());
+        }
+        let boxes: Vec<Aabb> = kept
+            .par_iter()
+            .map(|&k| Aabb::of_triangle(faces[k as usize].plane.corners()))
+            .collect();
+        let order = spatial_order(&boxes);
+        order
+            .par_iter()
+            .map(|&k| kept[k as usize])
+            .collect::<Vec<u32>>()
     };
-    // The faces in the order the spatial hash visits them, so that the exact tests read memory
-    // almost sequentially instead of jumping around the mesh.
-    let boxes: Vec<Aabb> = faces
+    let (faces, boxes): (Vec<Face>, Vec<Aabb>) = order
         .par_iter()
-        .map(|f| Aabb::of_triangle(f.plane.corners()))
-        .collect();
-    let order = spatial_order(&boxes);
-    drop(boxes);
-    let faces: Vec<Face> = order.par_iter().map(|&k| faces[k as usize]).collect();
-    let boxes: Vec<Aabb> = faces
-        .par_iter()
-        .map(|f| Aabb::of_triangle(f.plane.corners()))
-        .collect();
+        .map(|&k| {
+            let face = faces[k as usize];
+            (face, Aabb::of_triangle(face.plane.corners()))
+        })
+        .unzip();
     let found = overlapping_pairs(&boxes, |x, y| {
         let (a, b) = (&faces[x as usize], &faces[y as usize]);
         (active(a.id) || active(b.id)) && faces_intersect(a, b)
