@@ -52,40 +52,37 @@ fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> 
         u32::try_from(mesh.triangles().len()).is_ok(),
         "more than 2^32 triangles: the pair ids of the result cannot hold them"
     );
-    let faces: Vec<Face> = (0..mesh.triangles().len() as u32)
+    let count = mesh.triangles().len() as u32;
+    let (boxes, degenerate): (Vec<Aabb>, Vec<bool>) = (0..count)
         .into_par_iter()
-        .map(|t| Face::new(mesh, t))
-        .collect();
-    let degenerate: Vec<u32> = faces
-        .par_iter()
-        .filter(|f| f.plane.is_degenerate())
-        .map(|f| f.id)
-        .collect();
-    // The non-degenerate faces in Morton order of their boxes' lower corners, the order in which
-    // the spatial hash visits them, so that the exact tests read memory almost sequentially
-    // instead of jumping around the mesh.
-    let order = {
-        let mut kept: Vec<u32> = (0..faces.len() as u32).collect();
-        if !degenerate.is_empty() {
-            kept.retain(|&k| !faces[k as usize].plane.is_degenerate());
-        }
-        let boxes: Vec<Aabb> = kept
-            .par_iter()
-            .map(|&k| Aabb::of_triangle(faces[k as usize].plane.corners()))
-            .collect();
-        let order = spatial_order(&boxes);
-        order
-            .par_iter()
-            .map(|&k| kept[k as usize])
-            .collect::<Vec<u32>>()
+        .map(|t| {
+            let [a, b, c] = mesh.corners(t as usize);
+            (
+                Aabb::of_triangle([a, b, c]),
+                Plane::new(a, b, c).is_degenerate(),
+            )
+        })
+        .unzip();
+    // The non-degenerate triangles in Morton order of their boxes' lower corners, the order in
+    // which the spatial hash visits them. Their data is gathered from the mesh in that order,
+    // so that the exact tests read memory almost sequentially instead of jumping around.
+    let order: Vec<u32> = if degenerate.contains(&true) {
+        let kept: Vec<u32> = (0..count).filter(|&t| !degenerate[t as usize]).collect();
+        let kept_boxes: Vec<Aabb> = kept.par_iter().map(|&t| boxes[t as usize]).collect();
+        let order = spatial_order(&kept_boxes);
+        order.par_iter().map(|&k| kept[k as usize]).collect()
+    } else {
+        spatial_order(&boxes)
     };
+    drop(boxes);
     let (faces, boxes): (Vec<Face>, Vec<Aabb>) = order
         .par_iter()
-        .map(|&k| {
-            let face = faces[k as usize];
+        .map(|&t| {
+            let face = Face::new(mesh, t);
             (face, Aabb::of_triangle(face.plane.corners()))
         })
         .unzip();
+    drop(order);
     let found = overlapping_pairs(&boxes, |x, y| {
         let (a, b) = (&faces[x as usize], &faces[y as usize]);
         (active(a.id) || active(b.id)) && faces_intersect(a, b)
@@ -98,9 +95,8 @@ fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> 
         })
         .collect();
     pairs.extend(
-        degenerate
-            .into_iter()
-            .filter(|&t| active(t))
+        (0..count)
+            .filter(|&t| degenerate[t as usize] && active(t))
             .map(|t| (t, t)),
     );
     pairs.par_sort_unstable();

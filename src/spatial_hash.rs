@@ -130,7 +130,7 @@ pub fn spatial_order(boxes: &[Aabb]) -> Vec<u32> {
 }
 
 fn lowest_corner(boxes: &[Aabb]) -> Option<DVec3> {
-    boxes.iter().map(|b| b.lo).reduce(DVec3::min)
+    boxes.par_iter().map(|b| b.lo).reduce_with(DVec3::min)
 }
 
 /// The mean of the boxes' largest side, or infinity when that is not a usable cell size.
