@@ -14,7 +14,10 @@
 //!
 //! A degenerate triangle (collinear corners) is not tested against others; it is reported as
 //! the pair (t, t), as CGAL does. Sharing is by vertex index, not position: two vertices at the
-//! same place are as distinct as CGAL's `Surface_mesh` vertices read from the same file.
+//! same place are as distinct as CGAL's `Surface_mesh` vertices read from the same file. CGAL
+//! finds shared edges through its halfedge structure, which only holds manifold, consistently
+//! oriented meshes; for other meshes (an edge in three triangles, a duplicate face with the
+//! same winding) the same rules are applied to the shared indices.
 
 use glam::DVec3;
 use rayon::prelude::*;

@@ -3,15 +3,16 @@
 //! Deformable Objects" (VMV 2003).
 //!
 //! Space is cut into cubic cells whose size is about the mean box extent (the paper's finding:
-//! cells about the size of the objects work best; see `CELL_SIZE_PER_EXTENT`). Only occupied cells are stored: every box is
-//! entered into each cell its extent overlaps, and boxes meeting in a cell are candidate pairs.
+//! cells about the size of the objects work best; see `CELL_SIZE_PER_EXTENT`). Only occupied
+//! cells are stored: every box is entered into each cell its extent overlaps, and boxes meeting
+//! in a cell are candidate pairs.
 //!
 //! Where Teschner et al. hash the cell coordinates into a table modulo its size, the table here
 //! is the list of (cell key, box) entries sorted by key, the key being the cell's Morton
 //! (Z-order) code: a hash without collisions whose order follows space. Each cell is a run of
 //! the sorted list, and runs are visited in Morton order, so consecutive cells hold nearby boxes
 //! and the search streams through memory; with a modulo hash, cells come in random order and
-//! every box test misses the cache (measured 3 to 5 times slower on 0.3M–1.3M triangle meshes).
+//! box tests miss the cache (measured several times slower on 0.3M–1.3M triangle meshes).
 //! `spatial_order` lets callers store their boxes along the same curve.
 //!
 //! Two boxes that overlap share several cells; the pair is examined only in the cell holding
@@ -63,8 +64,8 @@ impl Aabb {
 
 /// The cell size in mean box extents. Teschner et al. found one extent best when the table is
 /// reused across time steps; here it is built for every query, and cells of two extents halve
-/// the number of entries for only a few more candidate pairs per cell (measured 10–20% faster
-/// overall on 0.3M–1.3M triangle spheres).
+/// the number of entries for only a few more candidate pairs per cell (measured about 10%
+/// faster overall on 0.3M–1.3M triangle spheres).
 const CELL_SIZE_PER_EXTENT: f64 = 2.0;
 
 /// A box covering no more than 3 cells along each axis always stays at the current level.
@@ -113,8 +114,8 @@ where
 
 /// The positions of `boxes` ordered along the Morton (Z-order) curve through their lower
 /// corners, on the first grid of `overlapping_pairs` refined 4 times: the order in which that
-/// search visits them. (The alignment matters: ordered on an unrelated grid, the same boxes are
-/// searched half as fast.)
+/// search visits them. (The alignment matters: ordered on an unrelated grid, the same boxes
+/// were searched about half as fast.)
 pub fn spatial_order(boxes: &[Aabb]) -> Vec<u32> {
     let Some(origin) = lowest_corner(boxes) else {
         return Vec::new();
