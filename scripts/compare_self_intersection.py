@@ -142,6 +142,17 @@ def folded_grid():
     return v, f
 
 
+def degenerate_and_duplicate():
+    """A pillow (one triangle twice, opposite windings: a closed two-face mesh), and a grid in
+    which one vertex is moved onto the line through two neighbours, making degenerate faces
+    (reported alone, as (f, f)) whose neighbours fold over."""
+    pillow_v = np.array([[0.0, 0.0, 5.0], [3.0, 0.0, 5.0], [0.0, 3.0, 5.0]])
+    pillow_f = np.array([[0, 1, 2], [0, 2, 1]])
+    v, f = grid(6, 6)
+    v[1 * 7 + 0] = [0.5, 0.5, 0.0]  # vertex (1, 0) onto the diagonal from (0, 0) to (1, 1)
+    return merged((pillow_v, pillow_f), (v, f))
+
+
 def cases(quick):
     out = [
         ("cap_20k", lambda: pushed_cap(5)),
@@ -151,6 +162,7 @@ def cases(quick):
         ("coplanar_grids", coplanar_grids),
         ("touching_grids", touching_grids),
         ("folded_grid", folded_grid),
+        ("degenerate_and_duplicate", degenerate_and_duplicate),
     ]
     if not quick:
         out += [
@@ -231,10 +243,10 @@ def main():
               f"ours {ours_s:.4f} s", flush=True)
 
     print()
-    print(f"{'case':<18}{'triangles':>11}{'pairs':>9}{'CGAL s':>10}{'ours s':>10}"
+    print(f"{'case':<26}{'triangles':>11}{'pairs':>9}{'CGAL s':>10}{'ours s':>10}"
           f"{'speed-up':>10}  same")
     for name, nf, np_, c, o, same in rows:
-        print(f"{name:<18}{nf:>11}{np_:>9}{c:>10.4f}{o:>10.4f}{c / o:>9.1f}x  {same}")
+        print(f"{name:<26}{nf:>11}{np_:>9}{c:>10.4f}{o:>10.4f}{c / o:>9.1f}x  {same}")
     if failures:
         sys.exit(f"pair sets differ for: {', '.join(failures)}")
 
