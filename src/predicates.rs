@@ -6,8 +6,8 @@
 //! Floating-Point Arithmetic and Fast Robust Geometric Predicates", 1997, through the `robust`
 //! crate): a floating-point evaluation with an error bound, refined to exact expansion
 //! arithmetic only when the bound does not decide the sign. The signs are therefore exact for
-//! every input whose intermediate products neither overflow nor underflow (coordinates roughly
-//! within 1e-90..1e90 in magnitude), which covers any mesh in millimetres.
+//! every input whose intermediate products neither overflow nor underflow (non-zero coordinate
+//! differences roughly within 1e-90..1e90 in magnitude), which covers any mesh in millimetres.
 //!
 //! Conventions follow CGAL so that code ported from its algorithms reads the same:
 //! `orient3d(a, b, c, d)` is the sign of det[b-a, c-a, d-a], positive when `d` lies on the side
