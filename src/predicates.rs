@@ -6,8 +6,8 @@
 //! Floating-Point Arithmetic and Fast Robust Geometric Predicates", 1997, through the `robust`
 //! crate): a floating-point evaluation with an error bound, refined to exact expansion
 //! arithmetic only when the bound does not decide the sign. The signs are therefore exact for
-//! every input whose intermediate products neither overflow nor underflow (coordinates roughly
-//! within 1e-90..1e90 in magnitude), which covers any mesh in millimetres.
+//! every input whose intermediate products neither overflow nor underflow (non-zero coordinate
+//! differences roughly within 1e-90..1e90 in magnitude), which covers any mesh in millimetres.
 //!
 //! Conventions follow CGAL so that code ported from its algorithms reads the same:
 //! `orient3d(a, b, c, d)` is the sign of det[b-a, c-a, d-a], positive when `d` lies on the side
@@ -142,6 +142,11 @@ impl Plane {
         let permanent = self.magnitude.dot(w.abs());
         if det.abs() > ORIENT3D_ERROR_BOUND * permanent {
             Sign::of(det)
+        } else if permanent == 0.0 {
+            // Every product of the expansion is zero (differences that round to zero are
+            // zero), so the determinant is exactly zero: the common case of points on an
+            // axis-aligned plane, which the adaptive predicate would take long to prove.
+            Sign::Zero
         } else {
             orient3d(self.a, self.b, self.c, p)
         }
@@ -346,6 +351,25 @@ mod tests {
                 collinear(a, b, c),
                 "{a} {b} {c}"
             );
+        }
+    }
+
+    #[test]
+    fn plane_side_on_axis_aligned_planes_is_exact() {
+        // A triangle in the plane y = 0.1 (every product with a y difference vanishes).
+        let (a, b, c) = (
+            DVec3::new(0.3, 0.1, -2.0),
+            DVec3::new(5.0, 0.1, 1.0),
+            DVec3::new(-1.0, 0.1, 7.0),
+        );
+        let plane = Plane::new(a, b, c);
+        for x in [-1e6, 0.0, 0.7, 3e5] {
+            let on = DVec3::new(x, 0.1, x / 3.0);
+            let above = DVec3::new(x, 0.1f64.next_down(), x / 3.0);
+            assert_eq!(plane.side(on), Sign::Zero);
+            assert_eq!(plane.side(on), orient3d(a, b, c, on));
+            assert_eq!(plane.side(above), orient3d(a, b, c, above));
+            assert_ne!(plane.side(above), Sign::Zero);
         }
     }
 

@@ -14,7 +14,10 @@
 //!
 //! A degenerate triangle (collinear corners) is not tested against others; it is reported as
 //! the pair (t, t), as CGAL does. Sharing is by vertex index, not position: two vertices at the
-//! same place are as distinct as CGAL's `Surface_mesh` vertices read from the same file.
+//! same place are as distinct as CGAL's `Surface_mesh` vertices read from the same file. CGAL
+//! finds shared edges through its halfedge structure, which only holds manifold, consistently
+//! oriented meshes; for other meshes (an edge in three triangles, a duplicate face with the
+//! same winding) the same rules are applied to the shared indices.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -47,38 +50,42 @@ pub fn self_intersections_among(mesh: &TriMesh, active: &[bool]) -> Result<Vec<(
 }
 
 fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> {
-    let count = u32::try_from(mesh.triangles().len())
-        .expect("more than 2^32 triangles: the pair ids of the result cannot hold them");
-    let faces: Vec<Face> = (0..count)
+    // Unreachable in practice: 2^32 triangles take 48 GiB of indices alone.
+    assert!(
+        u32::try_from(mesh.triangles().len()).is_ok(),
+        "more than 2^32 triangles: the pair ids of the result cannot hold them"
+    );
+    let count = mesh.triangles().len() as u32;
+    let (boxes, degenerate): (Vec<Aabb>, Vec<bool>) = (0..count)
         .into_par_iter()
-        .map(|t| Face::new(mesh, t))
-        .collect();
-    let degenerate: Vec<u32> = faces
-        .par_iter()
-        .filter(|f| f.plane.is_degenerate())
-        .map(|f| f.id)
-        .collect();
-    let faces: Vec<Face> = if degenerate.is_empty() {
-        faces
+        .map(|t| {
+            let [a, b, c] = mesh.corners(t as usize);
+            (
+                Aabb::of_triangle([a, b, c]),
+                Plane::new(a, b, c).is_degenerate(),
+            )
+        })
+        .unzip();
+    // The non-degenerate triangles in Morton order of their boxes' lower corners, the order in
+    // which the spatial hash visits them. Their data is gathered from the mesh in that order,
+    // so that the exact tests read memory almost sequentially instead of jumping around.
+    let order: Vec<u32> = if degenerate.contains(&true) {
+        let kept: Vec<u32> = (0..count).filter(|&t| !degenerate[t as usize]).collect();
+        let kept_boxes: Vec<Aabb> = kept.par_iter().map(|&t| boxes[t as usize]).collect();
+        let order = spatial_order(&kept_boxes);
+        order.par_iter().map(|&k| kept[k as usize]).collect()
     } else {
-        faces
-            .into_par_iter()
-            .filter(|f| !f.plane.is_degenerate())
-            .collect()
+        spatial_order(&boxes)
     };
-    // The faces in the order the spatial hash visits them, so that the exact tests read memory
-    // almost sequentially instead of jumping around the mesh.
-    let boxes: Vec<Aabb> = faces
-        .par_iter()
-        .map(|f| Aabb::of_triangle(f.plane.corners()))
-        .collect();
-    let order = spatial_order(&boxes);
     drop(boxes);
-    let faces: Vec<Face> = order.par_iter().map(|&k| faces[k as usize]).collect();
-    let boxes: Vec<Aabb> = faces
+    let (faces, boxes): (Vec<Face>, Vec<Aabb>) = order
         .par_iter()
-        .map(|f| Aabb::of_triangle(f.plane.corners()))
-        .collect();
+        .map(|&t| {
+            let face = Face::new(mesh, t);
+            (face, Aabb::of_triangle(face.plane.corners()))
+        })
+        .unzip();
+    drop(order);
     let found = overlapping_pairs(&boxes, |x, y| {
         let (a, b) = (&faces[x as usize], &faces[y as usize]);
         (active(a.id) || active(b.id)) && faces_intersect(a, b)
@@ -91,9 +98,8 @@ fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> 
         })
         .collect();
     pairs.extend(
-        degenerate
-            .into_iter()
-            .filter(|&t| active(t))
+        (0..count)
+            .filter(|&t| degenerate[t as usize] && active(t))
             .map(|t| (t, t)),
     );
     pairs.par_sort_unstable();

@@ -19,13 +19,8 @@ use crate::predicates::{orient2d, orient3d, Plane, Projection, Sign};
 /// has no plane and the answer is `false`, as in CGAL's self-intersection test, which never
 /// tests degenerate faces against others.
 pub fn triangles_intersect(a: [DVec3; 3], b: [DVec3; 3]) -> bool {
-    let (Some(_), Some(_)) = (
-        Projection::of_triangle(a[0], a[1], a[2]),
-        Projection::of_triangle(b[0], b[1], b[2]),
-    ) else {
-        return false;
-    };
-    prepared_triangles_intersect(&Plane::new(a[0], a[1], a[2]), &Plane::new(b[0], b[1], b[2]))
+    let (a, b) = (Plane::new(a[0], a[1], a[2]), Plane::new(b[0], b[1], b[2]));
+    !a.is_degenerate() && !b.is_degenerate() && prepared_triangles_intersect(&a, &b)
 }
 
 /// `triangles_intersect` for non-degenerate triangles given with their planes (which callers

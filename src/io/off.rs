@@ -92,15 +92,19 @@ impl<R: BufRead> Lines<'_, R> {
         }
     }
 
-    /// The next line with content, or an error saying what was expected instead of the end.
-    fn expect(&mut self, what: &str) -> Result<(usize, &str)> {
+    /// The next line with content, or an error saying what was expected instead of the end
+    /// (described lazily: formatting it for every line would slow reading down).
+    fn expect(&mut self, what: impl Fn() -> String) -> Result<(usize, &str)> {
         let name = self.name;
         match self.next()? {
             (number, Some(line)) => Ok((number, line)),
             (number, None) => Err(error_at(
                 name,
                 number,
-                format!("the file ends where {what} was expected; it is truncated"),
+                format!(
+                    "the file ends where {} was expected; it is truncated",
+                    what()
+                ),
             )),
         }
     }
@@ -123,7 +127,7 @@ fn parse(reader: impl BufRead, name: &str) -> Result<TriMesh> {
     const RESERVE_LIMIT: usize = 1 << 20;
     let mut points = Vec::with_capacity(vertex_count.min(RESERVE_LIMIT));
     for v in 0..vertex_count {
-        let (number, line) = lines.expect(&format!("vertex {v} of {vertex_count}"))?;
+        let (number, line) = lines.expect(|| format!("vertex {v} of {vertex_count}"))?;
         let mut fields = line.split_ascii_whitespace();
         let mut coordinate = |axis: &str| -> Result<f64> {
             let field = fields.next();
@@ -144,7 +148,7 @@ fn parse(reader: impl BufRead, name: &str) -> Result<TriMesh> {
     }
     let mut triangles = Vec::with_capacity(face_count.min(RESERVE_LIMIT));
     for f in 0..face_count {
-        let (number, line) = lines.expect(&format!("face {f} of {face_count}"))?;
+        let (number, line) = lines.expect(|| format!("face {f} of {face_count}"))?;
         let mut fields = line.split_ascii_whitespace();
         let corners = match fields.next().map(str::parse::<usize>) {
             Some(Ok(n)) if n >= 3 => n,
@@ -185,7 +189,7 @@ fn parse(reader: impl BufRead, name: &str) -> Result<TriMesh> {
 /// Reads the header keyword (if any) and the counts line; returns the vertex and face counts.
 fn header(lines: &mut Lines<impl BufRead>) -> Result<(usize, usize)> {
     let name = lines.name;
-    let (number, first) = lines.expect("the OFF header")?;
+    let (number, first) = lines.expect(|| "the OFF header".into())?;
     let mut fields = first.split_ascii_whitespace();
     let keyword = fields.next().unwrap_or("");
     let (number, counts): (usize, Vec<String>) =
@@ -220,7 +224,7 @@ fn header(lines: &mut Lines<impl BufRead>) -> Result<(usize, usize)> {
                 ));
             }
             if rest.is_empty() {
-                let (number, line) = lines.expect("the vertex, face and edge counts")?;
+                let (number, line) = lines.expect(|| "the vertex, face and edge counts".into())?;
                 (
                     number,
                     line.split_ascii_whitespace().map(str::to_string).collect(),
@@ -271,7 +275,7 @@ mod tests {
     fn round_trip_is_bit_exact() {
         let points = vec![
             DVec3::new(0.1, -0.0, 1e-300),
-            DVec3::new(1e300, -2.5e-7, 123456789.12345679),
+            DVec3::new(1e300, -2.5e-7, 123_456_789.123_456_79),
             DVec3::new(f64::MIN_POSITIVE, f64::MAX, -f64::EPSILON),
             DVec3::new(1.0 / 3.0, 2.0f64.sqrt(), -7.0),
         ];
