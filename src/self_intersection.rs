@@ -82,7 +82,7 @@ fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> 
         .par_iter()
         .map(|&t| {
             let face = Face::new(mesh, t);
-            (face, Aabb::of_triangle(face.plane.corners()))
+            (face, Aabb::of_triangle(face.corners))
         })
         .unzip();
     drop(order);
@@ -106,11 +106,13 @@ fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> 
     pairs
 }
 
-/// A non-degenerate triangle of the mesh, as the exact tests need it: its plane (holding its
-/// corners) is prepared once for the dozen or so tests it takes part in.
+/// A non-degenerate triangle of the mesh, as the exact tests need it. Its plane is not stored
+/// but made per test: 88 bytes per face instead of 136 (with the plane's normal and error
+/// magnitudes) take fewer fresh pages and cache lines than the plane takes arithmetic
+/// (measured about 10% faster on 1.3M triangle spheres).
 #[derive(Clone, Copy)]
 struct Face {
-    plane: Plane,
+    corners: [DVec3; 3],
     vertices: [u32; 3],
     /// Index in the mesh.
     id: u32,
@@ -120,39 +122,80 @@ impl Face {
     fn new(mesh: &TriMesh, id: u32) -> Face {
         let [a, b, c] = mesh.corners(id as usize);
         Face {
-            plane: Plane::new(a, b, c),
+            corners: [a, b, c],
             vertices: mesh.triangles()[id as usize],
             id,
         }
     }
+
+    /// The plane prepared for the side tests of one pair.
+    #[inline]
+    fn plane(&self) -> Plane {
+        let [a, b, c] = self.corners;
+        Plane::new(a, b, c)
+    }
 }
 
 /// CGAL's decision for two distinct non-degenerate triangles.
+///
+/// On a closed mesh most candidate pairs are neighbours, so the shared vertices are found with
+/// plain comparisons and the neighbour cases are settled by the planes' filtered side tests
+/// before any other work.
 fn faces_intersect(a: &Face, b: &Face) -> bool {
     let (va, vb) = (a.vertices, b.vertices);
-    let (ca, cb) = (a.plane.corners(), b.plane.corners());
-    // Where each corner of a appears in b.
-    let in_b = va.map(|v| vb.iter().position(|&w| w == v));
-    let shared_edge = (0..3).find(|&i| in_b[i].is_some() && in_b[(i + 1) % 3].is_some());
-    if let Some(i) = shared_edge {
-        let (p, q, r) = (i, (i + 1) % 3, (i + 2) % 3);
-        // b has distinct vertices (it is not degenerate), so one corner is off the edge.
-        let s = (0..3)
-            .find(|&k| vb[k] != va[p] && vb[k] != va[q])
-            .map_or(ca[r], |k| cb[k]);
-        // Intersecting iff the triangles fold onto each other: s coplanar with a (whose corners
-        // p, q, r are, in rotated order) and strictly on the same side of pq as r.
-        return a.plane.side(s) == Sign::Zero
-            && coplanar_orientation(ca[p], ca[q], ca[r], s) == Sign::Positive;
-    }
-    match (0..3).find_map(|i| in_b[i].map(|j| (i, j))) {
-        Some((i, j)) => {
-            let opposite = |c: [DVec3; 3], k: usize| [c[(k + 1) % 3], c[(k + 2) % 3]];
-            segment_meets_prepared(opposite(cb, j), &a.plane)
-                || segment_meets_prepared(opposite(ca, i), &b.plane)
+    // Bit i of `in_b` (`in_a`): corner i of a (b) is a vertex of b (a). The corners of a
+    // non-degenerate face are distinct vertices, so both masks have as many bits as shared
+    // vertices.
+    let (mut in_b, mut in_a) = (0u8, 0u8);
+    for (i, &v) in va.iter().enumerate() {
+        for (j, &w) in vb.iter().enumerate() {
+            if v == w {
+                in_b |= 1 << i;
+                in_a |= 1 << j;
+            }
         }
-        None => prepared_triangles_intersect(&a.plane, &b.plane),
     }
+    match in_b.count_ones() {
+        0 => prepared_triangles_intersect(&a.plane(), &b.plane()),
+        1 => {
+            let (i, j) = (
+                in_b.trailing_zeros() as usize,
+                in_a.trailing_zeros() as usize,
+            );
+            !opposite_edge_misses(b, j, &a.plane()) || !opposite_edge_misses(a, i, &b.plane())
+        }
+        _ => {
+            let (ca, cb) = (a.corners, b.corners);
+            // The first corner p of a such that p and its successor q are shared; r is a's
+            // third corner, s the corner of b off the edge pq (for a duplicate face, the one
+            // at r's vertex: the same point).
+            let p = match in_b {
+                0b110 => 1,
+                0b101 => 2,
+                _ => 0,
+            };
+            let (q, r) = ((p + 1) % 3, (p + 2) % 3);
+            let s = match (!in_a & 0b111).trailing_zeros() as usize {
+                k @ 0..=2 => cb[k],
+                _ => ca[r],
+            };
+            // Intersecting iff the triangles fold onto each other: s coplanar with a (whose
+            // corners p, q, r are, in rotated order) and strictly on the same side of pq as r.
+            a.plane().side(s) == Sign::Zero
+                && coplanar_orientation(ca[p], ca[q], ca[r], s) == Sign::Positive
+        }
+    }
+}
+
+/// Whether the edge of `face` opposite its corner `k` misses the triangle of `plane`, which
+/// shares that corner's vertex. Both endpoints strictly on one side of the plane (the common
+/// case, decided by the plane's filtered side test) settle it at once.
+#[inline]
+fn opposite_edge_misses(face: &Face, k: usize, plane: &Plane) -> bool {
+    let c = face.corners;
+    let edge = [c[(k + 1) % 3], c[(k + 2) % 3]];
+    let (s0, s1) = (plane.side(edge[0]), plane.side(edge[1]));
+    (s0 == s1 && s0 != Sign::Zero) || !segment_meets_prepared(edge, plane)
 }
 
 #[cfg(test)]
