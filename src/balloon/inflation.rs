@@ -126,6 +126,25 @@ mod tests {
     use crate::geometry::Geometry;
     use crate::volume::{Image, VoxelBuffer};
 
+    /// A stepper with unit edge length and quarter-voxel steps.
+    fn stepper<'a, 'v>(
+        volume: &'a Volume<'v>,
+        reference: f64,
+        tolerance: f64,
+        weights: ForceWeights,
+    ) -> Stepper<'a, 'v> {
+        Stepper {
+            volume,
+            window: IntensityWindow {
+                reference,
+                tolerance,
+            },
+            weights,
+            edge_length: 1.0,
+            max_step: 0.25,
+        }
+    }
+
     /// A bright ball of radius 6 around (10, 10, 10) on a dark background, with a linear ramp
     /// of one voxel across its surface.
     fn ball() -> Image {
@@ -144,16 +163,7 @@ mod tests {
     fn a_seed_sphere_inflates_to_the_border_and_freezes_on_it() {
         let image = ball();
         let volume = image.view();
-        let stepper = Stepper {
-            volume: &volume,
-            window: IntensityWindow {
-                reference: 1100.0,
-                tolerance: 500.0,
-            },
-            weights: ForceWeights::default(),
-            edge_length: 1.0,
-            max_step: 0.25,
-        };
+        let stepper = stepper(&volume, 1100.0, 500.0, ForceWeights::default());
         let mut surface = Surface::icosphere(DVec3::splat(10.0), 1.0, 3).unwrap();
         let mut scratch = Scratch::default();
         let mut steps = 0;
@@ -186,19 +196,15 @@ mod tests {
     fn no_vertex_moves_more_than_the_step() {
         let image = ball();
         let volume = image.view();
-        let stepper = Stepper {
-            volume: &volume,
-            window: IntensityWindow {
-                reference: 1100.0,
-                tolerance: 500.0,
-            },
-            weights: ForceWeights {
+        let stepper = stepper(
+            &volume,
+            1100.0,
+            500.0,
+            ForceWeights {
                 inflation: 50.0,
                 ..ForceWeights::default()
             },
-            edge_length: 1.0,
-            max_step: 0.25,
-        };
+        );
         let mut surface = Surface::icosphere(DVec3::splat(10.0), 2.0, 2).unwrap();
         let before = surface.positions().to_vec();
         stepper.step(&mut surface, &mut Scratch::default());
@@ -217,16 +223,7 @@ mod tests {
         )
         .unwrap();
         let volume = image.view();
-        let stepper = Stepper {
-            volume: &volume,
-            window: IntensityWindow {
-                reference: 200.0,
-                tolerance: 10.0,
-            },
-            weights: ForceWeights::default(),
-            edge_length: 1.0,
-            max_step: 0.25,
-        };
+        let stepper = stepper(&volume, 200.0, 10.0, ForceWeights::default());
         let mut surface = Surface::icosphere(DVec3::splat(3.5), 1.0, 2).unwrap();
         let mut scratch = Scratch::default();
         for _ in 0..100 {
