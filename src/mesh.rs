@@ -141,6 +141,22 @@ impl TriMesh {
         TriMesh { points, triangles }
     }
 
+    /// Adds `other`'s points and triangles after this mesh's, as separate components.
+    pub fn append(&mut self, other: &TriMesh) -> Result<()> {
+        let offset = self.points.len();
+        if offset + other.points.len() > u32::MAX as usize {
+            return Err(Error::invalid_mesh(format!(
+                "{} + {} points exceed the 32-bit index range",
+                offset,
+                other.points.len()
+            )));
+        }
+        self.points.extend_from_slice(&other.points);
+        self.triangles
+            .extend(other.triangles.iter().map(|t| t.map(|v| v + offset as u32)));
+        Ok(())
+    }
+
     pub fn points(&self) -> &[DVec3] {
         &self.points
     }
@@ -356,6 +372,16 @@ mod tests {
         let m = TriMesh::from_soup(&[[a, b, c], [b, d, c], [a_neg, c, b]]).unwrap();
         assert_eq!(m.points().len(), 4);
         assert_eq!(m.triangles(), &[[0, 1, 2], [1, 3, 2], [0, 2, 1]]);
+    }
+
+    #[test]
+    fn append_keeps_both_meshes_as_components() {
+        let mut m = cube(DVec3::ZERO, DVec3::ONE);
+        m.append(&cube(DVec3::splat(2.0), DVec3::splat(3.0)))
+            .unwrap();
+        assert_eq!(m.points().len(), 16);
+        assert_eq!(m.triangles()[12], [8, 10, 9]);
+        assert!((m.signed_volume() - 2.0).abs() < 1e-12);
     }
 
     #[test]

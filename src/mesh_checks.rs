@@ -131,16 +131,7 @@ pub fn check(mesh: &TriMesh) -> MeshReport {
     }
     let vertices = referenced.iter().filter(|&&r| r).count();
 
-    let labels = triangle_components(tris, n_points);
-    let components = labels.iter().copied().max().map_or(0, |m| m as usize + 1);
-    let mut component_volume = vec![0.0f64; components];
-    let centre = mesh
-        .bounds()
-        .map_or(glam::DVec3::ZERO, |(lo, hi)| 0.5 * (lo + hi));
-    for (t, &label) in labels.iter().enumerate() {
-        let [a, b, c] = mesh.corners(t);
-        component_volume[label as usize] += (a - centre).dot((b - centre).cross(c - centre)) / 6.0;
-    }
+    let (_, component_volume) = component_volumes(mesh);
 
     MeshReport {
         vertices,
@@ -152,12 +143,29 @@ pub fn check(mesh: &TriMesh) -> MeshReport {
         non_manifold_edges,
         non_manifold_vertices: non_manifold_vertex_count(tris, n_points),
         inconsistently_oriented_edges: inconsistent,
-        components,
+        components: component_volume.len(),
         euler_characteristic: vertices as i64 - edges as i64 + tris.len() as i64,
         area: mesh.area(),
         signed_volume: component_volume.iter().sum(),
         inward_components: component_volume.iter().filter(|&&v| v <= 0.0).count(),
     }
+}
+
+/// The component label of every triangle (triangles connected through shared vertices,
+/// numbered in order of first appearance) and the signed volume each component encloses,
+/// relative to the bounding-box centre so that meshes far from the origin keep their precision.
+pub fn component_volumes(mesh: &TriMesh) -> (Vec<u32>, Vec<f64>) {
+    let labels = triangle_components(mesh.triangles(), mesh.points().len());
+    let components = labels.iter().copied().max().map_or(0, |m| m as usize + 1);
+    let mut volumes = vec![0.0f64; components];
+    let centre = mesh
+        .bounds()
+        .map_or(glam::DVec3::ZERO, |(lo, hi)| 0.5 * (lo + hi));
+    for (t, &label) in labels.iter().enumerate() {
+        let [a, b, c] = mesh.corners(t);
+        volumes[label as usize] += (a - centre).dot((b - centre).cross(c - centre)) / 6.0;
+    }
+    (labels, volumes)
 }
 
 /// Union–find with path halving; small and allocation-free after construction.
@@ -193,7 +201,7 @@ impl DisjointSets {
 }
 
 /// Component label of every triangle, numbered 0.. in order of first appearance.
-pub(crate) fn triangle_components(tris: &[[u32; 3]], n_points: usize) -> Vec<u32> {
+fn triangle_components(tris: &[[u32; 3]], n_points: usize) -> Vec<u32> {
     let mut sets = DisjointSets::new(n_points);
     for &[a, b, c] in tris {
         sets.union(a, b);
@@ -358,11 +366,11 @@ mod tests {
 
     #[test]
     fn separate_shapes_count_as_components_and_genus_adds_up() {
-        let (mut points, mut tris) = torus(DVec3::ZERO, 3.0, 1.0, 16, 8).into_parts();
-        let s = icosphere(DVec3::new(10.0, 0.0, 0.0), 1.0, 1);
-        let offset = points.len() as u32;
-        points.extend_from_slice(s.points());
-        tris.extend(s.triangles().iter().map(|t| t.map(|v| v + offset)));
+        let mut shapes = torus(DVec3::ZERO, 3.0, 1.0, 16, 8);
+        shapes
+            .append(&icosphere(DVec3::new(10.0, 0.0, 0.0), 1.0, 1))
+            .unwrap();
+        let (mut points, tris) = shapes.into_parts();
         points.push(DVec3::splat(100.0));
         let r = check(&TriMesh::new(points, tris).unwrap());
         assert_eq!(r.components, 2);

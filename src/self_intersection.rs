@@ -232,14 +232,11 @@ mod tests {
     }
 
     fn merged(meshes: &[TriMesh]) -> TriMesh {
-        let mut points = Vec::new();
-        let mut triangles = Vec::new();
+        let mut all = TriMesh::default();
         for m in meshes {
-            let offset = points.len() as u32;
-            points.extend_from_slice(m.points());
-            triangles.extend(m.triangles().iter().map(|t| t.map(|v| v + offset)));
+            all.append(m).unwrap();
         }
-        TriMesh::new(points, triangles).unwrap()
+        all
     }
 
     /// A unit icosphere whose cap above z = 0.7 is pushed down through the opposite side: the

@@ -79,13 +79,7 @@ fn covering_grid(
 /// Drops the components that enclose negative volume: cavities, surfaces of voids inside the
 /// balloon that no balloon grown from a seed can have.
 fn without_cavities(mesh: TriMesh) -> TriMesh {
-    let labels = mesh_checks::triangle_components(mesh.triangles(), mesh.points().len());
-    let count = labels.iter().map(|&l| l as usize + 1).max().unwrap_or(0);
-    let mut volume = vec![0.0f64; count];
-    for (t, &label) in labels.iter().enumerate() {
-        let [a, b, c] = mesh.corners(t);
-        volume[label as usize] += a.dot(b.cross(c));
-    }
+    let (labels, volume) = mesh_checks::component_volumes(&mesh);
     if volume.iter().all(|&v| v > 0.0) {
         return mesh;
     }
@@ -123,13 +117,10 @@ mod tests {
     use super::*;
 
     fn two_overlapping_spheres() -> TriMesh {
-        let a = TriMesh::icosphere(DVec3::new(-2.0, 0.0, 0.0), 3.0, 3);
-        let b = TriMesh::icosphere(DVec3::new(2.0, 0.0, 0.0), 3.0, 3);
-        let (mut points, mut triangles) = a.into_parts();
-        let offset = points.len() as u32;
-        points.extend_from_slice(b.points());
-        triangles.extend(b.triangles().iter().map(|t| t.map(|v| v + offset)));
-        TriMesh::new(points, triangles).unwrap()
+        let mut a = TriMesh::icosphere(DVec3::new(-2.0, 0.0, 0.0), 3.0, 3);
+        a.append(&TriMesh::icosphere(DVec3::new(2.0, 0.0, 0.0), 3.0, 3))
+            .unwrap();
+        a
     }
 
     #[test]

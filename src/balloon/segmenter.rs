@@ -179,13 +179,9 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     pub fn add_seed(&mut self, seed: DVec3) -> Result<()> {
         self.check_seed(seed)?;
         let sphere = Surface::icosphere(seed, self.volume.geometry().mean_spacing(), 1)?;
-        let (mesh, states) = self.mesh();
-        let (mut points, mut triangles) = mesh.into_parts();
-        let offset = points.len() as u32;
-        let (sphere_points, sphere_triangles) = sphere.to_mesh()?.into_parts();
-        points.extend(sphere_points);
-        triangles.extend(sphere_triangles.iter().map(|t| t.map(|v| v + offset)));
-        let mut surface = Surface::from_mesh(&TriMesh::new(points, triangles)?)?;
+        let (mut mesh, states) = self.mesh();
+        mesh.append(&sphere.to_mesh()?)?;
+        let mut surface = Surface::from_mesh(&mesh)?;
         surface.states_mut()[..states.len()].copy_from_slice(&states);
         self.surface = surface;
         Ok(())
