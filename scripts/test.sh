@@ -13,7 +13,7 @@ step() { printf '\n=== %s\n' "$*"; }
 
 step "system packages"
 missing=()
-for pkg in g++ libcgal-dev libgmp-dev libmpfr-dev; do
+for pkg in g++ cmake valgrind libcgal-dev libgmp-dev libmpfr-dev libvtk9-dev libopenmesh-dev libgtest-dev; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
 done
 if ((${#missing[@]})); then
