@@ -38,6 +38,7 @@ static void test_last_error_message(void) {
   CHECK(memcmp(buffer, full, 4) == 0 && buffer[4] == '\0' && buffer[5] == 'x',
         "4 bytes and a NUL, nothing more");
   CHECK(balloon_last_error_message(buffer, 1) == n && buffer[0] == '\0', "size 1: just a NUL");
+  CHECK(balloon_last_error_message(NULL, 16) == n, "a NULL buffer only measures");
   /* A success does not clear it (errno-like). */
   BalloonParams p;
   EXPECT_OK(balloon_params_default(&p));
