@@ -235,6 +235,28 @@ mod tests {
     }
 
     #[test]
+    fn the_c_scalar_type_values_name_the_same_types() {
+        use BalloonScalarType::*;
+        let c = [
+            BALLOON_SCALAR_U8,
+            BALLOON_SCALAR_I8,
+            BALLOON_SCALAR_U16,
+            BALLOON_SCALAR_I16,
+            BALLOON_SCALAR_U32,
+            BALLOON_SCALAR_I32,
+            BALLOON_SCALAR_F32,
+            BALLOON_SCALAR_F64,
+        ];
+        for (c, rust) in c.into_iter().zip(ScalarType::ALL) {
+            assert_eq!(scalar_type_from_c(c as u32).unwrap(), rust);
+            assert!(
+                format!("{c:?}").ends_with(&format!("{rust:?}")),
+                "{c:?} {rust:?}"
+            );
+        }
+    }
+
+    #[test]
     fn bad_volumes_are_named() {
         let data = [0u32; 8];
         let p = data.as_ptr().cast::<c_void>();
