@@ -9,7 +9,7 @@ use std::mem::size_of;
 
 use glam::DVec3;
 
-use super::boundary::{run, run_infallible, Failure};
+use super::boundary::{require, run, run_infallible, Failure};
 use super::mesh::{BalloonMesh, FlatMesh};
 use super::params::{check_struct_size, params_from_c, BalloonParams};
 use super::status::BalloonStatus;
@@ -116,9 +116,7 @@ unsafe fn handle<'a>(
 /// # Safety
 /// `seed` must be NULL or point to 3 readable doubles.
 unsafe fn seed_from_c(seed: *const f64) -> std::result::Result<DVec3, Failure> {
-    if seed.is_null() {
-        return Err(Failure::null("seed_world"));
-    }
+    require(seed, "seed_world")?;
     // SAFETY: 3 doubles by the caller's promise.
     Ok(DVec3::from_array(unsafe {
         seed.cast::<[f64; 3]>().read_unaligned()
@@ -141,9 +139,7 @@ pub unsafe extern "C" fn balloon_init(
     out: *mut *mut BalloonSegmenter,
 ) -> BalloonStatus {
     run(|| {
-        if out.is_null() {
-            return Err(Failure::null("out"));
-        }
+        require(out, "out")?;
         // SAFETY: by the caller's promises above.
         let (volume, params, seed) = unsafe {
             (
@@ -217,9 +213,7 @@ pub unsafe extern "C" fn balloon_freeze_self_intersections(
     run(|| {
         // SAFETY: by the caller's promise.
         let h = unsafe { handle(s)? };
-        if frozen_vertices_out.is_null() {
-            return Err(Failure::null("frozen_vertices_out"));
-        }
+        require(frozen_vertices_out, "frozen_vertices_out")?;
         let frozen = h.mutate(|segmenter| segmenter.freeze_self_intersections())?;
         // SAFETY: non-NULL and writable.
         unsafe { frozen_vertices_out.write(frozen) };
@@ -270,9 +264,7 @@ pub unsafe extern "C" fn balloon_mesh(
     run(|| {
         // SAFETY: by the caller's promise.
         let h = unsafe { s.as_ref() }.ok_or_else(|| Failure::null("s"))?;
-        if out.is_null() {
-            return Err(Failure::null("out"));
-        }
+        require(out, "out")?;
         // SAFETY: non-NULL and writable.
         unsafe { out.write(h.mesh.view(h.states.as_ptr())) };
         Ok(())
@@ -291,12 +283,9 @@ pub unsafe extern "C" fn balloon_stats(
     run(|| {
         // SAFETY: by the caller's promise.
         let h = unsafe { s.as_ref() }.ok_or_else(|| Failure::null("s"))?;
-        if out.is_null() {
-            return Err(Failure::null("out"));
-        }
-        // SAFETY: the leading size is read before the size of the rest is trusted.
-        let given = unsafe { std::ptr::addr_of!((*out).struct_size).read_unaligned() };
-        check_struct_size("BalloonStats", given, size_of::<BalloonStats>())?;
+        require(out, "out")?;
+        // SAFETY: non-NULL; the leading size is read before the rest is trusted.
+        unsafe { check_struct_size(out, "BalloonStats")? };
         let stats = h.segmenter.stats();
         let seconds = stats.seconds;
         let c = BalloonStats {

@@ -6,7 +6,7 @@
 use std::ffi::c_void;
 use std::mem::{align_of, size_of};
 
-use super::boundary::Failure;
+use super::boundary::{require, Failure};
 use crate::error::Error;
 use crate::geometry::Geometry;
 use crate::volume::{Scalar, ScalarType, TypedVolume, Volume};
@@ -126,9 +126,7 @@ pub(crate) unsafe fn volume_from_c<'v>(
 ) -> Result<Volume<'v>, Failure> {
     // SAFETY: NULL or readable, by the caller's promise.
     let v = unsafe { volume.as_ref() }.ok_or_else(|| Failure::null("volume"))?;
-    if v.data.is_null() {
-        return Err(Failure::null("volume->data"));
-    }
+    require(v.data, "volume->data")?;
     let scalar_type = scalar_type_from_c(v.scalar_type)?;
     let geometry = Geometry::new(v.spacing, v.origin, v.direction)?;
     // SAFETY: forwarded from the caller.
