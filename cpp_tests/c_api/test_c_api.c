@@ -140,6 +140,8 @@ static void test_handle_errors(BalloonSegmenter *s, const double seed[3]) {
   EXPECT_ERROR(balloon_add_seed(s, NULL), BALLOON_NULL_POINTER, "seed_world");
   double outside[3] = {-1000.0, 0.0, 0.0};
   EXPECT_ERROR(balloon_add_seed(s, outside), BALLOON_INVALID_ARGUMENT, "outside");
+  double background[3] = {ORIGIN[0] + 1.0, ORIGIN[1] + 1.0, ORIGIN[2] + 1.0};
+  EXPECT_ERROR(balloon_add_seed(s, background), BALLOON_INVALID_ARGUMENT, "background");
   EXPECT_ERROR(balloon_step(NULL, 1, NULL), BALLOON_NULL_POINTER, "s");
   EXPECT_ERROR(balloon_freeze_self_intersections(NULL, &frozen), BALLOON_NULL_POINTER, "s");
   EXPECT_ERROR(balloon_freeze_self_intersections(s, NULL), BALLOON_NULL_POINTER,
@@ -243,11 +245,23 @@ static void test_cancel(void) {
   EXPECT_OK(balloon_mesh(s, &m));
   CHECK(m.point_count > 0 && m.vertex_state != NULL, "a mesh after the cancel");
   expect_valid_spheres(&m, 1, "after the cancel");
+
+  /* A re-parametrisation cancelled before it starts leaves the mesh as it was. */
+  Flat before = flat_copy(&m);
+  Progress at_once = {0, 1, -1.0, 0};
+  EXPECT_OK(balloon_set_progress_callback(s, on_progress, &at_once));
+  EXPECT_ERROR(balloon_reparametrize(s), BALLOON_CANCELLED, "reparametrization");
+  EXPECT_OK(balloon_mesh(s, &m));
+  Flat after = flat_copy(&m);
+  CHECK(flat_equal(&before, &after), "the mesh is unchanged by a cancelled re-parametrisation");
+  flat_free(&before);
+  flat_free(&after);
+
   EXPECT_OK(balloon_set_progress_callback(s, NULL, NULL));
   EXPECT_OK(balloon_segment(s));
   EXPECT_OK(balloon_mesh(s, &m));
   expect_valid_spheres(&m, 1, "resumed after the cancel");
-  CHECK(progress.calls == 6, "the callback was removed");
+  CHECK(progress.calls == 6 && at_once.calls == 1, "the callback was removed");
   balloon_free(s);
 
   /* A callback that never cancels sees the run to its end. */
