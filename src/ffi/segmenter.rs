@@ -68,7 +68,7 @@ pub struct BalloonStats {
 /// called only from the thread that called the library, with the fraction done (0 to 1) and
 /// the phase's name ("inflation", "self-intersection", "reparametrization", "refinement",
 /// "validation"), a string valid during the call only. It must not unwind (throw) into the
-/// library.
+/// library, nor call the library with the same handle.
 pub type BalloonProgressCallback = Option<
     unsafe extern "C" fn(fraction: f64, phase: *const c_char, user_data: *mut c_void) -> c_int,
 >;
