@@ -3,6 +3,7 @@ form and writers for the CLI's mesh formats (.vtp, .vtk, .stl, .ply, .obj)."""
 
 from __future__ import annotations
 
+import importlib.util
 import struct
 from pathlib import Path
 
@@ -74,9 +75,7 @@ class Mesh:
                 f"{path}: cannot tell the mesh format from the extension; use one of "
                 f"{', '.join(MESH_FORMATS)}"
             )
-        try:
-            import vtkmodules  # noqa: F401
-        except ImportError:
+        if importlib.util.find_spec("vtkmodules") is None:
             _NUMPY_WRITERS[suffix](self, path)
         else:
             _write_with_vtk(self, path, suffix)

@@ -73,7 +73,6 @@ def data_dir() -> Path:
 
 def read_vtp(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Points (float64, as written), triangles and the vertex_state array of a .vtp file."""
-    from vtkmodules.util.numpy_support import vtk_to_numpy
     from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
 
     reader = vtkXMLPolyDataReader()

@@ -1,0 +1,134 @@
+"""Segments the abdominal aorta of the shared vmtk scan from one seed and renders the surface
+over three orthogonal slices of the scan, off-screen, into a PNG.
+
+    python python_ctypes/examples/segment_aorta_png.py -o aorta.png
+
+Needs SimpleITK (reading) and vtk (rendering); the scan is $BALLOONSEG_DATA/vmtk-aorta/aorta.mha
+(default ../shared/data from the repository) unless given with --image.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import SimpleITK as sitk
+from vtkmodules.util.numpy_support import numpy_to_vtk
+from vtkmodules.vtkCommonDataModel import vtkImageData
+from vtkmodules.vtkImagingCore import vtkImageMapToWindowLevelColors
+from vtkmodules.vtkRenderingCore import (
+    vtkActor,
+    vtkImageActor,
+    vtkPolyDataMapper,
+    vtkRenderer,
+    vtkRenderWindow,
+    vtkWindowToImageFilter,
+)
+from vtkmodules.vtkIOImage import vtkPNGWriter
+import vtkmodules.vtkRenderingOpenGL2  # noqa: F401 - the rendering backend
+
+REPO = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(REPO / "python_ctypes"))
+import balloonseg  # noqa: E402
+
+#: The README's seed, deep inside the aortic trunk: voxel (74, 150, 15).
+AORTA_SEED = (-221.484, -156.445, 22.501)
+
+
+def vtk_image(image: sitk.Image) -> vtkImageData:
+    """The SimpleITK image as vtkImageData with the same spacing, origin and direction."""
+    voxels = sitk.GetArrayFromImage(image)
+    out = vtkImageData()
+    out.SetDimensions(image.GetSize())
+    out.SetSpacing(image.GetSpacing())
+    out.SetOrigin(image.GetOrigin())
+    out.SetDirectionMatrix(image.GetDirection())
+    out.GetPointData().SetScalars(numpy_to_vtk(voxels.ravel(), deep=True))
+    return out
+
+
+def slice_actor(image: vtkImageData, extent, window: float, level: float) -> vtkImageActor:
+    colours = vtkImageMapToWindowLevelColors()
+    colours.SetInputData(image)
+    colours.SetWindow(window)
+    colours.SetLevel(level)
+    actor = vtkImageActor()
+    actor.GetMapper().SetInputConnection(colours.GetOutputPort())
+    actor.SetDisplayExtent(*extent)
+    return actor
+
+
+def render(mesh: balloonseg.Mesh, image: sitk.Image, seed, path: Path, size=(1200, 1000)) -> None:
+    volume = vtk_image(image)
+    i, j, k = (int(round(v)) for v in image.TransformPhysicalPointToContinuousIndex(seed))
+    nx, ny, nz = image.GetSize()
+    renderer = vtkRenderer()
+    renderer.SetBackground(0.1, 0.1, 0.12)
+    for extent in ((i, i, 0, ny - 1, 0, nz - 1), (0, nx - 1, j, j, 0, nz - 1),
+                   (0, nx - 1, 0, ny - 1, 0, 0)):
+        renderer.AddActor(slice_actor(volume, extent, window=2200, level=1100))
+    mapper = vtkPolyDataMapper()
+    mapper.SetInputData(mesh.to_vtk())
+    mapper.ScalarVisibilityOff()
+    surface = vtkActor()
+    surface.SetMapper(mapper)
+    surface.GetProperty().SetColor(0.9, 0.3, 0.25)
+    surface.GetProperty().SetSpecular(0.3)
+    renderer.AddActor(surface)
+
+    camera = renderer.GetActiveCamera()
+    centre = mesh.points.mean(axis=0)
+    camera.SetFocalPoint(*centre)
+    # The image's k axis is the shortest; look along it, tilted, with the long j axis upright.
+    direction = np.reshape(image.GetDirection(), (3, 3))
+    along_k, along_j, along_i = direction[:, 2], direction[:, 1], direction[:, 0]
+    view = along_k * 0.8 + along_i * 0.6
+    camera.SetPosition(*(centre + 500.0 * view / np.linalg.norm(view)))
+    camera.SetViewUp(*(-along_j))
+    renderer.ResetCamera(mesh.to_vtk().GetBounds())
+    camera.Zoom(1.15)
+    renderer.ResetCameraClippingRange()
+
+    window = vtkRenderWindow()
+    window.SetOffScreenRendering(1)
+    window.SetSize(*size)
+    window.AddRenderer(renderer)
+    window.Render()
+    grab = vtkWindowToImageFilter()
+    grab.SetInput(window)
+    grab.Update()
+    writer = vtkPNGWriter()
+    writer.SetFileName(str(path))
+    writer.SetInputConnection(grab.GetOutputPort())
+    writer.Write()
+
+
+def main() -> None:
+    data = Path(os.environ.get("BALLOONSEG_DATA", REPO.parent / "shared" / "data"))
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--image", type=Path, default=data / "vmtk-aorta" / "aorta.mha")
+    parser.add_argument("--seed", type=float, nargs=3, default=AORTA_SEED, metavar=("X", "Y", "Z"))
+    parser.add_argument("-o", "--output", type=Path, default=Path("aorta.png"))
+    args = parser.parse_args()
+    if not args.image.exists():
+        parser.error(f"{args.image} does not exist: set BALLOONSEG_DATA or give --image")
+
+    image = sitk.ReadImage(str(args.image))
+    start = time.perf_counter()
+    mesh = balloonseg.segment(
+        sitk.GetArrayViewFromImage(image), args.seed, spacing=image.GetSpacing(),
+        origin=image.GetOrigin(), direction=image.GetDirection(),
+    )
+    s = mesh.stats
+    print(f"{len(mesh.points)} points, {len(mesh.triangles)} triangles, genus {s['genus']}, "
+          f"{s['volume_mm3'] / 1000:.1f} ml, {time.perf_counter() - start:.1f} s")
+    render(mesh, image, args.seed, args.output)
+    print(f"wrote {args.output}")
+
+
+if __name__ == "__main__":
+    main()
