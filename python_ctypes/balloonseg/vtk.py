@@ -83,6 +83,10 @@ class BalloonSegmentationFilter(VTKPythonAlgorithmBase):
     def GetSeed(self, index: int = 0) -> tuple[float, float, float]:
         return self._seeds[index]
 
+    def GetOutput(self) -> vtkPolyData:
+        """The surface (after ``Update()``), as C++ filters' GetOutput."""
+        return self.GetOutputDataObject(0)
+
     def GetErrorMessage(self) -> str:
         """The last error ("" after a successful run)."""
         return self._error

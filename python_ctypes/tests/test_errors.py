@@ -64,7 +64,7 @@ def test_a_leak_past_max_vertices(ball):
     library_error(
         balloonseg.LeakError,
         lambda: balloonseg.segment(np.full((40, 40, 40), 7.0, np.float32), (20, 20, 20),
-                                   tolerance=1.0, max_vertices=500),
+                                   reference_intensity=7.0, tolerance=1.0, max_vertices=500),
         "max_vertices",
     )
 

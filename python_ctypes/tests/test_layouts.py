@@ -80,7 +80,7 @@ def test_every_scalar_type_gives_the_identical_mesh(dtype, voxels_zyx, seed, ref
 def test_the_view_points_at_element_zero_with_element_strides():
     a = np.arange(4 * 5 * 6, dtype=np.int16).reshape(4, 5, 6)
     view, kept = volume_view(a[::-1, :, ::2], (1, 1, 1), (0, 0, 0), None, "zyx")
-    assert kept.base is a
+    assert np.shares_memory(kept, a)
     assert list(view.dims) == [3, 5, 4]
     assert list(view.strides) == [2, 6, -30]
     assert view.data == a.__array_interface__["data"][0] + 3 * 30 * a.itemsize
