@@ -19,7 +19,7 @@ import numpy as np
 import SimpleITK as sitk
 from vtkmodules.util.numpy_support import numpy_to_vtk
 from vtkmodules.vtkCommonDataModel import vtkImageData
-from vtkmodules.vtkImagingCore import vtkImageMapToWindowLevelColors
+from vtkmodules.vtkImagingColor import vtkImageMapToWindowLevelColors
 from vtkmodules.vtkRenderingCore import (
     vtkActor,
     vtkImageActor,
@@ -62,13 +62,14 @@ def slice_actor(image: vtkImageData, extent, window: float, level: float) -> vtk
     return actor
 
 
-def render(mesh: balloonseg.Mesh, image: sitk.Image, seed, path: Path, size=(1200, 1000)) -> None:
+def render(mesh: balloonseg.Mesh, image: sitk.Image, path: Path, size=(1000, 1200)) -> None:
+    """The mesh in front of three orthogonal slices of the scan: the far walls of its box as
+    the camera sees it (each at index 0 of its axis), so that no slice hides the vessel."""
     volume = vtk_image(image)
-    i, j, k = (int(round(v)) for v in image.TransformPhysicalPointToContinuousIndex(seed))
     nx, ny, nz = image.GetSize()
     renderer = vtkRenderer()
     renderer.SetBackground(0.1, 0.1, 0.12)
-    for extent in ((i, i, 0, ny - 1, 0, nz - 1), (0, nx - 1, j, j, 0, nz - 1),
+    for extent in ((0, 0, 0, ny - 1, 0, nz - 1), (0, nx - 1, 0, 0, 0, nz - 1),
                    (0, nx - 1, 0, ny - 1, 0, 0)):
         renderer.AddActor(slice_actor(volume, extent, window=2200, level=1100))
     mapper = vtkPolyDataMapper()
@@ -80,17 +81,20 @@ def render(mesh: balloonseg.Mesh, image: sitk.Image, seed, path: Path, size=(120
     surface.GetProperty().SetSpecular(0.3)
     renderer.AddActor(surface)
 
+    # Look from the side of growing i, j, k (mostly k, the scan's thin axis) towards the
+    # index-0 walls, with the vessel's long axis (j) upright on the picture.
     camera = renderer.GetActiveCamera()
     centre = mesh.points.mean(axis=0)
+    along_i, along_j, along_k = np.reshape(image.GetDirection(), (3, 3)).T
+    view = 0.75 * along_k + 0.45 * along_i + 0.35 * along_j
     camera.SetFocalPoint(*centre)
-    # The image's k axis is the shortest; look along it, tilted, with the long j axis upright.
-    direction = np.reshape(image.GetDirection(), (3, 3))
-    along_k, along_j, along_i = direction[:, 2], direction[:, 1], direction[:, 0]
-    view = along_k * 0.8 + along_i * 0.6
-    camera.SetPosition(*(centre + 500.0 * view / np.linalg.norm(view)))
-    camera.SetViewUp(*(-along_j))
-    renderer.ResetCamera(mesh.to_vtk().GetBounds())
-    camera.Zoom(1.15)
+    camera.SetPosition(*(centre + 800.0 * view / np.linalg.norm(view)))
+    camera.SetViewUp(*along_j)
+    # The image's world box from its corners (image actors' own bounds ignore the direction).
+    corners = np.array([image.TransformIndexToPhysicalPoint((i, j, k))
+                        for i in (0, nx - 1) for j in (0, ny - 1) for k in (0, nz - 1)])
+    renderer.ResetCamera(*np.ravel(np.column_stack([corners.min(0), corners.max(0)])))
+    camera.Zoom(1.2)
     renderer.ResetCameraClippingRange()
 
     window = vtkRenderWindow()
@@ -126,7 +130,7 @@ def main() -> None:
     s = mesh.stats
     print(f"{len(mesh.points)} points, {len(mesh.triangles)} triangles, genus {s['genus']}, "
           f"{s['volume_mm3'] / 1000:.1f} ml, {time.perf_counter() - start:.1f} s")
-    render(mesh, image, args.seed, args.output)
+    render(mesh, image, args.output)
     print(f"wrote {args.output}")
 
 
