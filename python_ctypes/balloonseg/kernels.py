@@ -74,9 +74,7 @@ def self_intersections(points, triangles) -> np.ndarray:
     if count.value:
         out = pairs.ctypes.data_as(ctypes.POINTER(ctypes.c_uint32))
         L.check(
-            lib.balloon_self_intersections(
-                *_pointers(p, t), out, count.value, ctypes.byref(count)
-            )
+            lib.balloon_self_intersections(*_pointers(p, t), out, count.value, ctypes.byref(count))
         )
     return pairs
 
@@ -92,9 +90,7 @@ def mesh_from_view(view: L.BalloonMesh) -> tuple[np.ndarray, np.ndarray, np.ndar
 
     points = copy(view.points, view.point_count, 3, np.float64)
     triangles = copy(view.triangles, view.triangle_count, 3, np.uint32)
-    states = (
-        copy(view.vertex_state, view.point_count, 0, np.uint8) if view.vertex_state else None
-    )
+    states = copy(view.vertex_state, view.point_count, 0, np.uint8) if view.vertex_state else None
     return points, triangles, states
 
 
@@ -114,8 +110,11 @@ def marching_cubes(
     view, _array = volume_view(volume, spacing, origin, direction, axes)
     lib = L.library()
     handle = ctypes.c_void_p()
-    L.check(lib.balloon_marching_cubes(ctypes.byref(view), float(level), int(threads),
-                                       ctypes.byref(handle)))
+    L.check(
+        lib.balloon_marching_cubes(
+            ctypes.byref(view), float(level), int(threads), ctypes.byref(handle)
+        )
+    )
     try:
         mesh = L.BalloonMesh()
         L.check(lib.balloon_trimesh_view(handle, ctypes.byref(mesh)))

@@ -143,8 +143,8 @@ def _write_legacy_vtk(mesh: Mesh, path: Path) -> None:
     ]
     if mesh.vertex_state is not None:
         parts += [
-            f"\nPOINT_DATA {n}\nSCALARS vertex_state unsigned_char 1\nLOOKUP_TABLE default\n"
-            .encode(),
+            f"\nPOINT_DATA {n}\nSCALARS vertex_state unsigned_char 1\n".encode(),
+            b"LOOKUP_TABLE default\n",
             mesh.vertex_state.tobytes(),
         ]
     path.write_bytes(b"".join(parts) + b"\n")

@@ -52,7 +52,9 @@ def _parameter_value(name: str, value):
     except (TypeError, ValueError, OverflowError):
         exact = False
     if not exact:
-        raise InvalidArgumentError(f"{name} must be {'a number' if kind is float else 'an integer'}, got {value!r}")
+        raise InvalidArgumentError(
+            f"{name} must be {'a number' if kind is float else 'an integer'}, got {value!r}"
+        )
     limit = 2**64 if name == "max_vertices" else 2**32
     if kind is int and not 0 <= converted < limit:
         raise InvalidArgumentError(f"{name} is {value}; it must be in 0..{limit - 1}")

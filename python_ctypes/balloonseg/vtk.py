@@ -120,13 +120,21 @@ class BalloonSegmentationFilter(VTKPythonAlgorithmBase):
         nx, ny, nz = image.GetDimensions()
         voxels = vtk_to_numpy(scalars).reshape(nz, ny, nx)
         spacing = np.array(image.GetSpacing())
-        direction = np.array([image.GetDirectionMatrix().GetElement(r, c)
-                              for r in range(3) for c in range(3)]).reshape(3, 3)
+        direction = np.array(
+            [image.GetDirectionMatrix().GetElement(r, c) for r in range(3) for c in range(3)]
+        ).reshape(3, 3)
         corner = np.array(image.GetExtent()[0::2], dtype=np.float64)
         origin = np.array(image.GetOrigin()) + direction @ (spacing * corner)
-        with Segmenter(voxels, self._seeds, spacing=spacing, origin=origin,
-                       direction=direction, axes="zyx", progress=self._progress,
-                       **self._params) as segmenter:
+        with Segmenter(
+            voxels,
+            self._seeds,
+            spacing=spacing,
+            origin=origin,
+            direction=direction,
+            axes="zyx",
+            progress=self._progress,
+            **self._params,
+        ) as segmenter:
             return segmenter.segment()
 
     def _progress(self, fraction: float, _phase: str) -> bool:

@@ -17,9 +17,11 @@ from pathlib import Path
 
 import numpy as np
 import SimpleITK as sitk
+import vtkmodules.vtkRenderingOpenGL2  # noqa: F401 - the rendering backend
 from vtkmodules.util.numpy_support import numpy_to_vtk
 from vtkmodules.vtkCommonDataModel import vtkImageData
 from vtkmodules.vtkImagingColor import vtkImageMapToWindowLevelColors
+from vtkmodules.vtkIOImage import vtkPNGWriter
 from vtkmodules.vtkRenderingCore import (
     vtkActor,
     vtkImageActor,
@@ -28,8 +30,6 @@ from vtkmodules.vtkRenderingCore import (
     vtkRenderWindow,
     vtkWindowToImageFilter,
 )
-from vtkmodules.vtkIOImage import vtkPNGWriter
-import vtkmodules.vtkRenderingOpenGL2  # noqa: F401 - the rendering backend
 
 REPO = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(REPO / "python_ctypes"))
@@ -69,8 +69,11 @@ def render(mesh: balloonseg.Mesh, image: sitk.Image, path: Path, size=(1000, 120
     nx, ny, nz = image.GetSize()
     renderer = vtkRenderer()
     renderer.SetBackground(0.1, 0.1, 0.12)
-    for extent in ((0, 0, 0, ny - 1, 0, nz - 1), (0, nx - 1, 0, 0, 0, nz - 1),
-                   (0, nx - 1, 0, ny - 1, 0, 0)):
+    for extent in (
+        (0, 0, 0, ny - 1, 0, nz - 1),
+        (0, nx - 1, 0, 0, 0, nz - 1),
+        (0, nx - 1, 0, ny - 1, 0, 0),
+    ):
         renderer.AddActor(slice_actor(volume, extent, window=2200, level=1100))
     mapper = vtkPolyDataMapper()
     mapper.SetInputData(mesh.to_vtk())
@@ -91,8 +94,14 @@ def render(mesh: balloonseg.Mesh, image: sitk.Image, path: Path, size=(1000, 120
     camera.SetPosition(*(centre + 800.0 * view / np.linalg.norm(view)))
     camera.SetViewUp(*along_j)
     # The image's world box from its corners (image actors' own bounds ignore the direction).
-    corners = np.array([image.TransformIndexToPhysicalPoint((i, j, k))
-                        for i in (0, nx - 1) for j in (0, ny - 1) for k in (0, nz - 1)])
+    corners = np.array(
+        [
+            image.TransformIndexToPhysicalPoint((i, j, k))
+            for i in (0, nx - 1)
+            for j in (0, ny - 1)
+            for k in (0, nz - 1)
+        ]
+    )
     renderer.ResetCamera(*np.ravel(np.column_stack([corners.min(0), corners.max(0)])))
     camera.Zoom(1.2)
     renderer.ResetCameraClippingRange()
@@ -124,12 +133,17 @@ def main() -> None:
     image = sitk.ReadImage(str(args.image))
     start = time.perf_counter()
     mesh = balloonseg.segment(
-        sitk.GetArrayViewFromImage(image), args.seed, spacing=image.GetSpacing(),
-        origin=image.GetOrigin(), direction=image.GetDirection(),
+        sitk.GetArrayViewFromImage(image),
+        args.seed,
+        spacing=image.GetSpacing(),
+        origin=image.GetOrigin(),
+        direction=image.GetDirection(),
     )
     s = mesh.stats
-    print(f"{len(mesh.points)} points, {len(mesh.triangles)} triangles, genus {s['genus']}, "
-          f"{s['volume_mm3'] / 1000:.1f} ml, {time.perf_counter() - start:.1f} s")
+    print(
+        f"{len(mesh.points)} points, {len(mesh.triangles)} triangles, genus {s['genus']}, "
+        f"{s['volume_mm3'] / 1000:.1f} ml, {time.perf_counter() - start:.1f} s"
+    )
     render(mesh, image, args.output)
     print(f"wrote {args.output}")
 

@@ -29,7 +29,7 @@ def missing(reason: str):
     """Fails under CI, else skips with a loud reason."""
     if IN_CI:
         pytest.fail(f"{reason} (mandatory because CI=true)")
-    warnings.warn(f"SKIPPED: {reason}")
+    warnings.warn(f"SKIPPED: {reason}", stacklevel=2)
     pytest.skip(f"SKIPPED: {reason}")
 
 
@@ -44,6 +44,12 @@ def run_cli(cli: Path, *args) -> str:
     done = subprocess.run([str(cli), *map(str, args)], capture_output=True, text=True)
     assert done.returncode == 0, f"balloonseg {' '.join(map(str, args))}: {done.stderr}"
     return done.stdout
+
+
+def cli_segment(cli: Path, image, seed, out: Path, *options):
+    """The CLI's segmentation (written as .vtp, Float64 points) read back."""
+    run_cli(cli, "segment", image, f"--seed={','.join(map(repr, seed))}", "-o", out, *options)
+    return read_vtp(out)
 
 
 @pytest.fixture(scope="session")
@@ -71,6 +77,14 @@ def data_dir() -> Path:
     return data
 
 
+@pytest.fixture(scope="session")
+def aorta(cli, data_dir, tmp_path_factory):
+    """The aorta scan's path and the CLI's mesh of it from the README seed (made once)."""
+    path = data_dir / "vmtk-aorta" / "aorta.mha"
+    out = tmp_path_factory.mktemp("aorta") / "cli.vtp"
+    return path, cli_segment(cli, path, AORTA_SEED, out)
+
+
 def read_vtp(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Points (float64, as written), triangles and the vertex_state array of a .vtp file."""
     from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
@@ -84,7 +98,9 @@ def read_vtp(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
 def polydata_arrays(poly) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     from vtkmodules.util.numpy_support import vtk_to_numpy
 
-    points = vtk_to_numpy(poly.GetPoints().GetData()) if poly.GetNumberOfPoints() else np.zeros((0, 3))
+    points = (
+        vtk_to_numpy(poly.GetPoints().GetData()) if poly.GetNumberOfPoints() else np.zeros((0, 3))
+    )
     polys = poly.GetPolys()
     offsets = vtk_to_numpy(polys.GetOffsetsArray())
     assert np.all(np.diff(offsets) == 3), "only triangles expected"
@@ -94,7 +110,8 @@ def polydata_arrays(poly) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
 
 
 def read_image(path):
-    """A SimpleITK image and the keyword arguments that give its geometry to balloonseg."""
+    """A SimpleITK image, a numpy view of its voxels (valid only while the image lives: SimpleITK's
+    views do not keep it alive) and the keyword arguments that give its geometry to balloonseg."""
     import SimpleITK as sitk
 
     image = sitk.ReadImage(str(path))

@@ -3,23 +3,16 @@ bit for bit) on every phantom and on the aorta, and the mesh is a valid closed s
 
 import numpy as np
 import pytest
-
-import balloonseg
 from conftest import (
     AORTA_SEED,
     PHANTOMS,
     assert_same_mesh,
     assert_valid_surface,
+    cli_segment,
     read_image,
-    read_vtp,
-    run_cli,
 )
 
-
-def cli_mesh(cli, image_path, seed, tmp_path, *options):
-    out = tmp_path / "cli.vtp"
-    run_cli(cli, "segment", image_path, f"--seed={','.join(map(repr, seed))}", "-o", out, *options)
-    return read_vtp(out)
+import balloonseg
 
 
 @pytest.mark.parametrize("name", PHANTOMS)
@@ -27,7 +20,7 @@ def test_phantom_mesh_equals_cli(name, cli, phantom, tmp_path):
     path, seed = phantom(name)
     image, voxels, geometry = read_image(path)
     mesh = balloonseg.segment(voxels, seed, **geometry)
-    assert_same_mesh(mesh, *cli_mesh(cli, path, seed, tmp_path))
+    assert_same_mesh(mesh, *cli_segment(cli, path, seed, tmp_path / "cli.vtp"))
     assert_valid_surface(mesh)
 
 
@@ -36,7 +29,7 @@ def test_oblique_anisotropic_phantom_equals_cli(cli, phantom, tmp_path):
     image, voxels, geometry = read_image(path)
     assert not np.allclose(np.reshape(geometry["direction"], (3, 3)), np.eye(3))
     mesh = balloonseg.segment(voxels, seed, **geometry)
-    assert_same_mesh(mesh, *cli_mesh(cli, path, seed, tmp_path))
+    assert_same_mesh(mesh, *cli_segment(cli, path, seed, tmp_path / "cli.vtp"))
     assert_valid_surface(mesh)
 
 
@@ -46,26 +39,44 @@ def test_parameters_reach_the_library_as_the_cli_flags(cli, phantom, tmp_path):
     mesh = balloonseg.segment(
         voxels, seed, edge_length_mm=1.7, max_iterations=60, bending_weight=0.3, **geometry
     )
-    expected = cli_mesh(
-        cli, path, seed, tmp_path, "--edge-length=1.7", "--max-iterations=60", "--bending=0.3"
+    expected = cli_segment(
+        cli,
+        path,
+        seed,
+        tmp_path / "cli.vtp",
+        "--edge-length=1.7",
+        "--max-iterations=60",
+        "--bending=0.3",
     )
     assert_same_mesh(mesh, *expected)
     default = balloonseg.segment(voxels, seed, **geometry)
     assert len(default.points) != len(mesh.points), "the parameters changed nothing"
 
 
-def test_aorta_mesh_equals_cli(cli, data_dir, tmp_path):
-    path = data_dir / "vmtk-aorta" / "aorta.mha"
+def test_aorta_mesh_equals_cli(aorta):
+    path, expected = aorta
     image, voxels, geometry = read_image(path)
     assert voxels.dtype == np.float32
     mesh = balloonseg.segment(voxels, AORTA_SEED, **geometry)
-    assert_same_mesh(mesh, *cli_mesh(cli, path, AORTA_SEED, tmp_path))
+    assert_same_mesh(mesh, *expected)
     assert_valid_surface(mesh)
     stats = mesh.stats
     for key in (
-        "vertices", "triangles", "euler_characteristic", "genus", "components", "closed",
-        "manifold", "self_intersecting_pairs", "iterations", "reparametrizations",
-        "volume_mm3", "area_mm2", "seconds", "reference_intensity", "tolerance",
+        "vertices",
+        "triangles",
+        "euler_characteristic",
+        "genus",
+        "components",
+        "closed",
+        "manifold",
+        "self_intersecting_pairs",
+        "iterations",
+        "reparametrizations",
+        "volume_mm3",
+        "area_mm2",
+        "seconds",
+        "reference_intensity",
+        "tolerance",
     ):
         assert key in stats, key
     assert stats["vertices"] == len(mesh.points) and stats["iterations"] > 0

@@ -55,7 +55,8 @@ def test_singular_direction(ball):
 
 def test_a_bad_parameter_value(ball):
     library_error(
-        balloonseg.InvalidArgumentError, lambda: balloonseg.segment(ball, SEED, tolerance=-1.0),
+        balloonseg.InvalidArgumentError,
+        lambda: balloonseg.segment(ball, SEED, tolerance=-1.0),
         "tolerance",
     )
 
@@ -63,8 +64,13 @@ def test_a_bad_parameter_value(ball):
 def test_a_leak_past_max_vertices(ball):
     library_error(
         balloonseg.LeakError,
-        lambda: balloonseg.segment(np.full((40, 40, 40), 7.0, np.float32), (20, 20, 20),
-                                   reference_intensity=7.0, tolerance=1.0, max_vertices=500),
+        lambda: balloonseg.segment(
+            np.full((40, 40, 40), 7.0, np.float32),
+            (20, 20, 20),
+            reference_intensity=7.0,
+            tolerance=1.0,
+            max_vertices=500,
+        ),
         "max_vertices",
     )
 
@@ -140,8 +146,13 @@ def test_a_closed_segmenter_refuses_calls(ball):
 
 
 def test_the_hierarchy():
-    for cls in (balloonseg.CancelledError, balloonseg.LeakError, balloonseg.InvalidVolumeError,
-                balloonseg.PanicError, balloonseg.UnknownParameterError):
+    for cls in (
+        balloonseg.CancelledError,
+        balloonseg.LeakError,
+        balloonseg.InvalidVolumeError,
+        balloonseg.PanicError,
+        balloonseg.UnknownParameterError,
+    ):
         assert issubclass(cls, balloonseg.BalloonError)
     assert issubclass(balloonseg.PanicError, balloonseg.InternalError)
     e = balloonseg.errors.error_for_status(8, "leaked")

@@ -87,8 +87,12 @@ def test_self_intersections_of_two_overlapping_tetrahedra():
 
 @pytest.mark.parametrize(
     "points, triangles",
-    [(np.zeros((4, 2)), [[0, 1, 2]]), (np.zeros((4, 3)), [[0, 1]]), (np.zeros((4, 3)), [[0, -1, 2]]),
-     (np.zeros((4, 3)), [[0.5, 1, 2]])],
+    [
+        (np.zeros((4, 2)), [[0, 1, 2]]),
+        (np.zeros((4, 3)), [[0, 1]]),
+        (np.zeros((4, 3)), [[0, -1, 2]]),
+        (np.zeros((4, 3)), [[0.5, 1, 2]]),
+    ],
 )
 def test_malformed_arrays(points, triangles):
     with pytest.raises(balloonseg.InvalidMeshError):

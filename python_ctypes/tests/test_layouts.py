@@ -3,10 +3,10 @@ read in place through its strides (C, Fortran, negative, non-unit) and axis orde
 
 import numpy as np
 import pytest
+from conftest import assert_same_mesh, read_image
 
 import balloonseg
 from balloonseg._volume import volume_view
-from conftest import assert_same_mesh, read_image
 
 GEOMETRY = dict(spacing=(0.9, 1.0, 1.2), origin=(-3.0, 5.0, 7.5))
 
@@ -15,8 +15,8 @@ GEOMETRY = dict(spacing=(0.9, 1.0, 1.2), origin=(-3.0, 5.0, 7.5))
 def voxels_zyx(phantom):
     """The y-vessel phantom as small integers (0..100), which every scalar type holds exactly."""
     path, _ = phantom("y-vessel")
-    _, voxels, _ = read_image(path)
-    v = np.asarray(voxels, dtype=np.float64)
+    image, voxels, _ = read_image(path)  # the view is valid while `image` lives
+    v = np.array(voxels, dtype=np.float64)
     return np.round(100 * (v - v.min()) / (v.max() - v.min()))
 
 

@@ -3,6 +3,7 @@ back by VTK."""
 
 import numpy as np
 import pytest
+from conftest import polydata_arrays
 from vtkmodules.vtkIOGeometry import vtkOBJReader, vtkSTLReader
 from vtkmodules.vtkIOLegacy import vtkPolyDataReader
 from vtkmodules.vtkIOPLY import vtkPLYReader
@@ -10,7 +11,6 @@ from vtkmodules.vtkIOXML import vtkXMLPolyDataReader
 
 import balloonseg
 from balloonseg import mesh as mesh_module
-from conftest import polydata_arrays
 
 READERS = {
     ".vtp": vtkXMLPolyDataReader,
@@ -49,7 +49,9 @@ def test_to_vtk(mesh):
 @pytest.mark.parametrize("suffix", list(READERS))
 def test_save_and_read_back(mesh, suffix, writer, tmp_path, monkeypatch):
     if writer == "numpy":
-        monkeypatch.setattr(mesh_module, "_write_with_vtk", lambda m, p, s: mesh_module._NUMPY_WRITERS[s](m, p))
+        monkeypatch.setattr(
+            mesh_module, "_write_with_vtk", lambda m, p, s: mesh_module._NUMPY_WRITERS[s](m, p)
+        )
     path = tmp_path / f"mesh{suffix}"
     mesh.save(path)
     points, triangles, states = read_back(path)

@@ -3,9 +3,9 @@ and the lifetime of the meshes it hands out."""
 
 import numpy as np
 import pytest
+from conftest import assert_same_mesh, assert_valid_surface, read_image
 
 import balloonseg
-from conftest import assert_same_mesh, assert_valid_surface, read_image
 
 PHASES = {"inflation", "self-intersection", "reparametrization", "refinement", "validation"}
 

@@ -4,6 +4,14 @@ output and an ErrorEvent, the extent is honoured."""
 
 import numpy as np
 import pytest
+from conftest import (
+    AORTA_SEED,
+    assert_same_mesh,
+    cli_segment,
+    polydata_arrays,
+    read_image,
+    read_vtp,
+)
 from vtkmodules.util.misc import calldata_type
 from vtkmodules.vtkCommonCore import VTK_STRING, vtkCommand
 from vtkmodules.vtkImagingCore import vtkImageChangeInformation, vtkImageClip
@@ -12,7 +20,6 @@ from vtkmodules.vtkIOXML import vtkXMLPolyDataWriter
 
 import balloonseg
 from balloonseg.vtk import FILTER_PARAMETERS, BalloonSegmentationFilter
-from conftest import AORTA_SEED, assert_same_mesh, polydata_arrays, read_image, read_vtp, run_cli
 
 
 def reader_with_itk_direction(path):
@@ -25,11 +32,6 @@ def reader_with_itk_direction(path):
     image, _, _ = read_image(path)
     fix.SetOutputDirection(image.GetDirection())
     return fix
-
-
-def cli_mesh(cli, path, seed, out):
-    run_cli(cli, "segment", path, f"--seed={','.join(map(repr, seed))}", "-o", out)
-    return read_vtp(out)
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +51,7 @@ def test_reader_filter_writer_equals_the_cli_in_world_coordinates(cli, oblique, 
     assert writer.Write() == 1
     assert balloon.GetErrorMessage() == ""
     points, triangles, states = read_vtp(tmp_path / "filter.vtp")
-    expected = cli_mesh(cli, path, seed, tmp_path / "cli.vtp")
+    expected = cli_segment(cli, path, seed, tmp_path / "cli.vtp")
     assert_same_mesh(balloonseg.Mesh(points, triangles, states), *expected)
 
     # World coordinates as ITK defines them: the surface's centre, mapped back to a continuous
@@ -59,7 +61,12 @@ def test_reader_filter_writer_equals_the_cli_in_world_coordinates(cli, oblique, 
     centre_index = np.array(image.TransformPhysicalPointToContinuousIndex(centre))
     seed_index = np.array(image.TransformPhysicalPointToContinuousIndex(seed))
     assert np.abs(centre_index - seed_index).max() < 0.25
-    back = [image.TransformContinuousIndexToPhysicalPoint(image.TransformPhysicalPointToContinuousIndex(p)) for p in points[:50]]
+    back = [
+        image.TransformContinuousIndexToPhysicalPoint(
+            image.TransformPhysicalPointToContinuousIndex(p)
+        )
+        for p in points[:50]
+    ]
     assert np.allclose(back, points[:50], atol=1e-9)
 
 
@@ -75,16 +82,18 @@ def test_the_direction_matrix_matters(cli, oblique, tmp_path):
     balloon.SetInputConnection(fix.GetOutputPort())
     image, _, _ = read_image(path)
     seed_index = image.TransformPhysicalPointToContinuousIndex(seed)
-    balloon.SetSeed(*(o + s * i for o, s, i in zip(image.GetOrigin(), image.GetSpacing(), seed_index)))
+    balloon.SetSeed(
+        *(o + s * i for o, s, i in zip(image.GetOrigin(), image.GetSpacing(), seed_index))
+    )
     balloon.Update()
     points, _, _ = polydata_arrays(balloon.GetOutput())
-    expected, _, _ = cli_mesh(cli, path, seed, tmp_path / "cli.vtp")
+    expected, _, _ = cli_segment(cli, path, seed, tmp_path / "cli.vtp")
     assert len(points) > 0
     assert np.abs(points.mean(axis=0) - expected.mean(axis=0)).max() > 1.0
 
 
-def test_the_aorta_through_the_filter_equals_the_cli(cli, data_dir, tmp_path):
-    path = data_dir / "vmtk-aorta" / "aorta.mha"
+def test_the_aorta_through_the_filter_equals_the_cli(aorta):
+    path, expected = aorta
     source = reader_with_itk_direction(path)  # kept: VTK's ports do not own their algorithm
     balloon = BalloonSegmentationFilter()
     balloon.SetInputConnection(source.GetOutputPort())
@@ -93,7 +102,10 @@ def test_the_aorta_through_the_filter_equals_the_cli(cli, data_dir, tmp_path):
     balloon.AddObserver(vtkCommand.ProgressEvent, lambda o, e: progress.append(o.GetProgress()))
     balloon.Update()
     points, triangles, states = polydata_arrays(balloon.GetOutput())
-    assert_same_mesh(balloonseg.Mesh(points, triangles, states), *cli_mesh(cli, path, AORTA_SEED, tmp_path / "cli.vtp"))
+    assert_same_mesh(
+        balloonseg.Mesh(points, triangles, states),
+        *expected,
+    )
     assert progress and max(progress) == 1.0
 
 
