@@ -11,7 +11,7 @@ import numpy as np
 
 from . import kernels
 
-MESH_FORMATS = (".vtp", ".vtk", ".stl", ".ply", ".obj")
+MESH_FORMATS = (".vtp", ".vtk", ".stl", ".ply", ".obj", ".off")
 
 
 class Mesh:
@@ -66,8 +66,9 @@ class Mesh:
         return poly
 
     def save(self, path) -> None:
-        """Writes the mesh; the format follows the extension (.vtp, .vtk, .stl, .ply, .obj).
-        VTK's writers when ``vtk`` is importable, else the built-in ones (same formats)."""
+        """Writes the mesh; the format follows the extension (.vtp, .vtk, .stl, .ply, .obj,
+        .off). VTK's writers when ``vtk`` is importable, else (and for .off, which VTK does not
+        write) the built-in ones."""
         path = Path(path)
         suffix = path.suffix.lower()
         if suffix not in MESH_FORMATS:
@@ -75,7 +76,7 @@ class Mesh:
                 f"{path}: cannot tell the mesh format from the extension; use one of "
                 f"{', '.join(MESH_FORMATS)}"
             )
-        if importlib.util.find_spec("vtkmodules") is None:
+        if suffix == ".off" or importlib.util.find_spec("vtkmodules") is None:
             _NUMPY_WRITERS[suffix](self, path)
         else:
             _write_with_vtk(self, path, suffix)
@@ -192,10 +193,18 @@ def _write_obj(mesh: Mesh, path: Path) -> None:
         np.savetxt(f, mesh.triangles.astype(np.int64) + 1, fmt="f %d %d %d")
 
 
+def _write_off(mesh: Mesh, path: Path) -> None:
+    with open(path, "w") as f:
+        f.write(f"OFF\n{len(mesh.points)} {len(mesh.triangles)} 0\n")
+        np.savetxt(f, mesh.points, fmt="%.17g %.17g %.17g")
+        np.savetxt(f, mesh.triangles.astype(np.int64), fmt="3 %d %d %d")
+
+
 _NUMPY_WRITERS = {
     ".vtp": _write_vtp,
     ".vtk": _write_legacy_vtk,
     ".stl": _write_stl,
     ".ply": _write_ply,
     ".obj": _write_obj,
+    ".off": _write_off,
 }

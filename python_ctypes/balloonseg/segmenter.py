@@ -9,7 +9,7 @@ import numpy as np
 
 from . import _library as L
 from ._volume import triple, volume_view
-from .errors import InvalidArgumentError, UnknownParameterError
+from .errors import InvalidArgumentError, PanicError, UnknownParameterError
 from .kernels import mesh_from_view
 from .mesh import Mesh
 
@@ -101,6 +101,7 @@ class Segmenter:
         **params,
     ):
         self._handle = None
+        self._panic = None
         self._lib = L.library()
         seeds = _seeds(seed)
         params_struct = _params_struct(params)
@@ -155,7 +156,7 @@ class Segmenter:
         if callback is not None and not callable(callback):
             raise InvalidArgumentError(f"progress must be callable or None, got {callback!r}")
         trampoline = L.PROGRESS_CALLBACK(self._on_progress) if callback else L.PROGRESS_CALLBACK()
-        L.check(self._lib.balloon_set_progress_callback(self._live(), trampoline, None))
+        self._call(self._lib.balloon_set_progress_callback, trampoline, None)
         self._progress = callback
         self._trampoline = trampoline  # ctypes frees the C thunk with this object
 
@@ -168,17 +169,29 @@ class Segmenter:
             return 1
 
     def _call(self, function, *args) -> None:
+        """Calls ``function(handle, *args)``; raises the callback's exception if it raised one,
+        else the status's. After a panic only ``close()`` is allowed (the C ABI's rule)."""
+        if self._panic is not None:
+            raise PanicError(
+                f"a previous call failed with a caught panic ({self._panic}); only close() is "
+                "possible now: create a new Segmenter",
+                PanicError.default_status,
+            )
         self._callback_error = None
         status = function(self._live(), *args)
         error, self._callback_error = self._callback_error, None
         if error is not None:
             raise error
-        L.check(status)
+        try:
+            L.check(status)
+        except PanicError as e:
+            self._panic = str(e)
+            raise
 
     # --- the method -------------------------------------------------------------------------
     def add_seed(self, seed) -> None:
         """Another seed sphere (world mm), e.g. in a branch the first one cannot reach."""
-        L.check(self._lib.balloon_add_seed(self._live(), _as_c_triple(seed)))
+        self._call(self._lib.balloon_add_seed, _as_c_triple(seed))
 
     def step(self, iterations: int = 1) -> int:
         """Up to ``iterations`` steps of inflation (stops early at equilibrium); returns the
@@ -209,7 +222,7 @@ class Segmenter:
     def mesh(self) -> Mesh:
         """A copy of the current balloon (stays valid after further steps)."""
         view = L.BalloonMesh()
-        L.check(self._lib.balloon_mesh(self._live(), ctypes.byref(view)))
+        self._call(self._lib.balloon_mesh, ctypes.byref(view))
         points, triangles, states = mesh_from_view(view)
         return Mesh(points, triangles, states, self.stats)
 
@@ -218,7 +231,7 @@ class Segmenter:
         """What the run did so far: reference_intensity, tolerance, edge_length_mm, iterations,
         reparametrizations, seconds (per phase and total)."""
         s = L.BalloonStats(struct_size=ctypes.sizeof(L.BalloonStats))
-        L.check(self._lib.balloon_stats(self._live(), ctypes.byref(s)))
+        self._call(self._lib.balloon_stats, ctypes.byref(s))
         return {
             "reference_intensity": s.reference_intensity,
             "tolerance": s.tolerance,

@@ -74,4 +74,15 @@ def test_save_and_read_back(mesh, suffix, writer, tmp_path, monkeypatch):
 
 def test_an_unknown_extension_is_refused(mesh, tmp_path):
     with pytest.raises(ValueError, match=r"\.vtp"):
-        mesh.save(tmp_path / "mesh.off")
+        mesh.save(tmp_path / "mesh.xyz")
+
+
+def test_off_is_written_without_vtk(mesh, tmp_path):
+    path = tmp_path / "mesh.off"
+    mesh.save(path)
+    lines = path.read_text().splitlines()
+    assert lines[0] == "OFF" and lines[1] == f"{len(mesh.points)} {len(mesh.triangles)} 0"
+    body = np.array([line.split() for line in lines[2 : 2 + len(mesh.points)]], dtype=np.float64)
+    assert np.array_equal(body, mesh.points)
+    faces = np.array([line.split() for line in lines[2 + len(mesh.points) :]], dtype=np.int64)
+    assert np.all(faces[:, 0] == 3) and np.array_equal(faces[:, 1:], mesh.triangles)
