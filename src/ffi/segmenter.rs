@@ -359,3 +359,105 @@ pub unsafe extern "C" fn balloon_free(s: *mut BalloonSegmenter) {
         }
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::phantom::{self, PhantomOptions, Shape};
+    use crate::volume::VoxelBuffer;
+
+    unsafe extern "C" fn cancel_third(_: f64, _: *const c_char, calls: *mut c_void) -> c_int {
+        let calls = unsafe { &mut *calls.cast::<c_int>() };
+        *calls += 1;
+        c_int::from(*calls == 3)
+    }
+
+    fn flat(view: &BalloonMesh) -> (Vec<f64>, Vec<u32>, Vec<u8>) {
+        unsafe {
+            (
+                std::slice::from_raw_parts(view.points, 3 * view.point_count).to_vec(),
+                std::slice::from_raw_parts(view.triangles, 3 * view.triangle_count).to_vec(),
+                std::slice::from_raw_parts(view.vertex_state, view.point_count).to_vec(),
+            )
+        }
+    }
+
+    #[test]
+    fn a_cancelled_handle_keeps_a_valid_mesh_and_finishes_like_the_safe_api() {
+        let p = phantom::render(Shape::Sphere, &PhantomOptions::default()).unwrap();
+        let VoxelBuffer::F32(voxels) = p.image.buffer() else {
+            panic!("phantoms are float32")
+        };
+        let [ni, nj, _] = p.image.dims();
+        let g = p.image.geometry();
+        let volume = BalloonVolume {
+            data: voxels.as_ptr().cast(),
+            scalar_type: 6,
+            dims: p.image.dims(),
+            strides: [1, ni as isize, (ni * nj) as isize],
+            spacing: g.spacing(),
+            origin: g.origin(),
+            direction: g.direction(),
+        };
+        let seed = p.seed_world().to_array();
+        let mut s = std::ptr::null_mut();
+        let mut view = std::mem::MaybeUninit::<BalloonMesh>::uninit();
+        let mut calls: c_int = 0;
+        unsafe {
+            assert_eq!(
+                balloon_init(&volume, std::ptr::null(), seed.as_ptr(), &mut s),
+                BalloonStatus::BALLOON_OK
+            );
+            let calls_ptr = (&mut calls as *mut c_int).cast();
+            balloon_set_progress_callback(s, Some(cancel_third), calls_ptr);
+            assert_eq!(balloon_segment(s), BalloonStatus::BALLOON_CANCELLED);
+            assert_eq!(calls, 3);
+            assert_eq!(
+                balloon_mesh(s, view.as_mut_ptr()),
+                BalloonStatus::BALLOON_OK
+            );
+            let (points, triangles, _) = flat(&view.assume_init());
+            let cancelled = TriMesh::new(
+                points.chunks_exact(3).map(DVec3::from_slice).collect(),
+                triangles
+                    .chunks_exact(3)
+                    .map(|t| [t[0], t[1], t[2]])
+                    .collect(),
+            )
+            .unwrap();
+            assert!(crate::mesh_checks::check(&cancelled).is_valid_closed_surface());
+
+            balloon_set_progress_callback(s, None, std::ptr::null_mut());
+            assert_eq!(balloon_segment(s), BalloonStatus::BALLOON_OK);
+            assert_eq!(
+                balloon_mesh(s, view.as_mut_ptr()),
+                BalloonStatus::BALLOON_OK
+            );
+        }
+        let from_c = flat(unsafe { &view.assume_init() });
+        unsafe { balloon_free(s) };
+
+        // The safe API, cancelled at the same point and resumed, gives the same mesh.
+        let mut safe = Segmenter::new(
+            p.image.view(),
+            crate::balloon::BalloonParams::default(),
+            p.seed_world(),
+        )
+        .unwrap();
+        let mut calls = 0;
+        safe.set_progress(Some(Box::new(move |_, _| {
+            calls += 1;
+            calls != 3
+        })));
+        assert!(safe.segment().is_err());
+        safe.set_progress(None);
+        let (mesh, states) = safe.segment().unwrap();
+        let expected = FlatMesh::new(&mesh);
+        assert_eq!(from_c.0, expected.points);
+        assert_eq!(from_c.1, expected.triangles);
+        assert_eq!(
+            from_c.2,
+            states.iter().map(|&s| s as u8).collect::<Vec<_>>()
+        );
+    }
+}
