@@ -67,6 +67,7 @@ def render(mesh: balloonseg.Mesh, image: sitk.Image, path: Path, size=(1000, 120
     the camera sees it (each at index 0 of its axis), so that no slice hides the vessel."""
     volume = vtk_image(image)
     nx, ny, nz = image.GetSize()
+    low, high = np.percentile(sitk.GetArrayViewFromImage(image), [1.0, 99.5])
     renderer = vtkRenderer()
     renderer.SetBackground(0.1, 0.1, 0.12)
     for extent in (
@@ -74,7 +75,7 @@ def render(mesh: balloonseg.Mesh, image: sitk.Image, path: Path, size=(1000, 120
         (0, nx - 1, 0, 0, 0, nz - 1),
         (0, nx - 1, 0, ny - 1, 0, 0),
     ):
-        renderer.AddActor(slice_actor(volume, extent, window=2200, level=1100))
+        renderer.AddActor(slice_actor(volume, extent, window=high - low, level=(high + low) / 2))
     mapper = vtkPolyDataMapper()
     mapper.SetInputData(mesh.to_vtk())
     mapper.ScalarVisibilityOff()

@@ -127,3 +127,27 @@ def test_default_params_and_parameter_names():
     assert set(defaults) == set(balloonseg.PARAMETERS)
     assert np.isnan(defaults["tolerance"]) and defaults["max_iterations"] > 0
     assert balloonseg.version().split(".")[0] == balloonseg.__version__.split(".")[0]
+
+
+def test_the_thread_count_does_not_change_the_mesh(y_vessel):
+    _, voxels, geometry, seed = y_vessel
+    one = balloonseg.segment(voxels, seed, threads=1, **geometry)
+    two = balloonseg.segment(voxels, seed, threads=2, **geometry)
+    assert_same_mesh(one, two.points, two.triangles, two.vertex_state)
+
+
+def test_segmenters_in_parallel_python_threads(y_vessel, torus):
+    """ctypes releases the GIL during calls: two segmenters run at once, each as alone."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    cases = [(c[1], c[3], c[2]) for c in (y_vessel, torus, y_vessel)]
+
+    def run(case):
+        volume, seed, geometry = case
+        return balloonseg.segment(volume, seed, threads=1, **geometry)
+
+    alone = [run(c) for c in cases]
+    with ThreadPoolExecutor(3) as pool:
+        together = list(pool.map(run, cases))
+    for a, b in zip(alone, together):
+        assert_same_mesh(a, b.points, b.triangles, b.vertex_state)
