@@ -28,6 +28,18 @@ def triple(name: str, value) -> tuple[float, float, float]:
     return tuple(float(v) for v in values)
 
 
+def unsigned(name: str, value, limit: int = 2**32) -> int:
+    """``value`` as an integer in 0..limit-1 (a bool or a fractional number is refused)."""
+    try:
+        converted = int(value)
+        exact = converted == value and not isinstance(value, bool)
+    except (TypeError, ValueError, OverflowError):
+        exact = False
+    if not exact or not 0 <= converted < limit:
+        raise InvalidArgumentError(f"{name} must be an integer in 0..{limit - 1}, got {value!r}")
+    return converted
+
+
 def direction_matrix(direction) -> tuple[float, ...]:
     """Nine floats, row-major, from a 3x3 matrix or nine numbers (None = identity). Columns are
     the directions of the i, j, k axes, as ITK's and VTK's direction matrices."""

@@ -7,7 +7,7 @@ import ctypes
 import numpy as np
 
 from . import _library as L
-from ._volume import volume_view
+from ._volume import unsigned, volume_view
 from .errors import InvalidMeshError
 
 
@@ -112,7 +112,7 @@ def marching_cubes(
     handle = ctypes.c_void_p()
     L.check(
         lib.balloon_marching_cubes(
-            ctypes.byref(view), float(level), int(threads), ctypes.byref(handle)
+            ctypes.byref(view), float(level), unsigned("threads", threads), ctypes.byref(handle)
         )
     )
     try:

@@ -8,7 +8,7 @@ import ctypes
 import numpy as np
 
 from . import _library as L
-from ._volume import triple, volume_view
+from ._volume import triple, unsigned, volume_view
 from .errors import InvalidArgumentError, PanicError, UnknownParameterError
 from .kernels import mesh_from_view
 from .mesh import Mesh
@@ -45,24 +45,19 @@ def _params_struct(overrides: dict) -> L.BalloonParams:
 
 
 def _parameter_value(name: str, value):
-    kind = PARAMETERS[name]
+    if PARAMETERS[name] is int:
+        return unsigned(name, value, 2**64 if name == "max_vertices" else 2**32)
     try:
-        converted = kind(value)
-        exact = kind is float or (converted == value and not isinstance(value, bool))
-    except (TypeError, ValueError, OverflowError):
-        exact = False
-    if not exact:
-        raise InvalidArgumentError(
-            f"{name} must be {'a number' if kind is float else 'an integer'}, got {value!r}"
-        )
-    limit = 2**64 if name == "max_vertices" else 2**32
-    if kind is int and not 0 <= converted < limit:
-        raise InvalidArgumentError(f"{name} is {value}; it must be in 0..{limit - 1}")
-    return converted
+        return float(value)
+    except (TypeError, ValueError) as e:
+        raise InvalidArgumentError(f"{name} must be a number, got {value!r}") from e
 
 
 def _seeds(seed) -> np.ndarray:
-    seeds = np.asarray(seed, dtype=np.float64)
+    try:
+        seeds = np.asarray(seed, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise InvalidArgumentError(f"seed must be numbers (x, y, z) in mm, got {seed!r}") from e
     if seeds.ndim == 1:
         seeds = seeds[None, :]
     if seeds.ndim != 2 or seeds.shape[1] != 3 or len(seeds) == 0:
@@ -196,10 +191,9 @@ class Segmenter:
     def step(self, iterations: int = 1) -> int:
         """Up to ``iterations`` steps of inflation (stops early at equilibrium); returns the
         number of vertices still moving."""
-        if int(iterations) != iterations or not 0 <= iterations < 2**32:
-            raise InvalidArgumentError(f"iterations must be an integer >= 0, got {iterations!r}")
+        iterations = unsigned("iterations", iterations)
         active = ctypes.c_uint32()
-        self._call(self._lib.balloon_step, int(iterations), ctypes.byref(active))
+        self._call(self._lib.balloon_step, iterations, ctypes.byref(active))
         return active.value
 
     def freeze_self_intersections(self) -> int:

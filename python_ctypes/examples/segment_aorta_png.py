@@ -104,7 +104,7 @@ def render(mesh: balloonseg.Mesh, image: sitk.Image, path: Path, size=(1000, 120
         ]
     )
     renderer.ResetCamera(*np.ravel(np.column_stack([corners.min(0), corners.max(0)])))
-    camera.Zoom(1.2)
+    camera.Zoom(1.1)
     renderer.ResetCameraClippingRange()
 
     window = vtkRenderWindow()

@@ -157,3 +157,12 @@ def test_the_hierarchy():
     assert issubclass(balloonseg.PanicError, balloonseg.InternalError)
     e = balloonseg.errors.error_for_status(8, "leaked")
     assert type(e) is balloonseg.LeakError and e.status == 8 and str(e) == "leaked"
+
+
+def test_kernel_and_step_arguments_are_checked(ball):
+    with pytest.raises(balloonseg.InvalidArgumentError, match="threads"):
+        balloonseg.marching_cubes(ball, 50.0, threads=-1)
+    with balloonseg.Segmenter(ball, SEED) as s, pytest.raises(ValueError, match="iterations"):
+        s.step(True)
+    with pytest.raises(balloonseg.InvalidArgumentError, match="seed"):
+        balloonseg.segment(ball, ("a", "b", "c"))
