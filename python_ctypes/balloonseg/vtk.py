@@ -19,7 +19,7 @@ from vtkmodules.util.vtkAlgorithm import VTKPythonAlgorithmBase
 from vtkmodules.vtkCommonCore import vtkCommand, vtkOutputWindow
 from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPolyData
 
-from .errors import BalloonError, CancelledError
+from .errors import BalloonError, CancelledError, InvalidArgumentError
 from .segmenter import Segmenter
 
 #: VTK-style parameter name -> BalloonParams field.
@@ -108,12 +108,12 @@ class BalloonSegmentationFilter(VTKPythonAlgorithmBase):
 
     def _segment(self, image: vtkImageData):
         if not self._seeds:
-            raise BalloonError("no seed: call SetSeed(x, y, z) with a point inside the structure")
+            raise InvalidArgumentError("no seed: SetSeed(x, y, z) at a point inside the structure")
         scalars = image.GetPointData().GetScalars() if image else None
         if scalars is None:
-            raise BalloonError("the input image has no point scalars to segment")
+            raise InvalidArgumentError("the input image has no point scalars to segment")
         if scalars.GetNumberOfComponents() != 1:
-            raise BalloonError(
+            raise InvalidArgumentError(
                 f"the input scalars have {scalars.GetNumberOfComponents()} components; extract "
                 "one (vtkImageExtractComponents) before segmenting"
             )
