@@ -1,0 +1,56 @@
+"""balloonseg: seeded balloon segmentation of CT/MR volumes (Python bindings of libballoonseg).
+
+>>> import SimpleITK as sitk, balloonseg
+>>> image = sitk.ReadImage("aorta.mha")
+>>> mesh = balloonseg.segment(sitk.GetArrayViewFromImage(image), seed=(-221.484, -156.445, 22.501),
+...                           spacing=image.GetSpacing(), origin=image.GetOrigin(),
+...                           direction=image.GetDirection())
+>>> mesh.save("aorta.vtp")
+"""
+
+from ._library import version
+from .errors import (
+    BalloonError,
+    BufferTooSmallError,
+    CancelledError,
+    InternalError,
+    InvalidArgumentError,
+    InvalidMeshError,
+    InvalidVolumeError,
+    LeakError,
+    NullPointerError,
+    PanicError,
+    ParamsSizeMismatchError,
+    UnknownParameterError,
+    UnsupportedScalarTypeError,
+)
+from .kernels import check, marching_cubes, self_intersections
+from .mesh import Mesh
+from .segmenter import PARAMETERS, Segmenter, default_params, segment
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "BalloonError",
+    "BufferTooSmallError",
+    "CancelledError",
+    "InternalError",
+    "InvalidArgumentError",
+    "InvalidMeshError",
+    "InvalidVolumeError",
+    "LeakError",
+    "Mesh",
+    "NullPointerError",
+    "PARAMETERS",
+    "PanicError",
+    "ParamsSizeMismatchError",
+    "Segmenter",
+    "UnknownParameterError",
+    "UnsupportedScalarTypeError",
+    "check",
+    "default_params",
+    "marching_cubes",
+    "segment",
+    "self_intersections",
+    "version",
+]
