@@ -1,6 +1,6 @@
 // Segmentation outputs checked by other libraries, and the VTK filter in VTK pipelines.
 //
-// SegmentationOutputs: each segmentation (a sphere and a torus phantom made here, the vmtk aorta,
+// SegmentationOutputs: each segmentation (sphere, ellipsoid and torus phantoms made here, the vmtk aorta,
 // the VTK carotid) through the C ABI must be, for OpenMesh, a closed 2-manifold (every face
 // accepted by add_face, no boundary halfedge, every vertex manifold) with the Euler
 // characteristic balloon_mesh_check reports; for CGAL closed, bounding a volume, equal in
@@ -92,6 +92,17 @@ Phantom SpherePhantom()
   return MakePhantom({ 36, 36, 36 }, { 1, 1, 1 }, { 17.5, 17.5, 17.5 },
     [](double x, double y, double z) {
       return (x - 17.5) * (x - 17.5) + (y - 17.5) * (y - 17.5) + (z - 17.5) * (z - 17.5) < 100.0;
+    });
+}
+
+// An ellipsoid (semi-axes 12, 8, 6 mm) with its axes along the grid's: a direction matrix that
+// is ignored or transposed moves or turns it.
+Phantom EllipsoidPhantom()
+{
+  return MakePhantom({ 36, 36, 36 }, { 1, 1, 1 }, { 17.5, 17.5, 17.5 },
+    [](double x, double y, double z) {
+      const double u = (x - 17.5) / 12.0, v = (y - 17.5) / 8.0, w = (z - 17.5) / 6.0;
+      return u * u + v * v + w * w < 1.0;
     });
 }
 
@@ -256,6 +267,12 @@ TEST(SegmentationOutputs, SpherePhantom)
 {
   const Phantom p = SpherePhantom();
   CheckWithOpenMeshAndCgal("sphere phantom", PhantomSegmentation("sphere phantom", p));
+}
+
+TEST(SegmentationOutputs, EllipsoidPhantom)
+{
+  const Phantom p = EllipsoidPhantom();
+  CheckWithOpenMeshAndCgal("ellipsoid phantom", PhantomSegmentation("ellipsoid phantom", p));
 }
 
 TEST(SegmentationOutputs, TorusPhantom)
@@ -450,7 +467,7 @@ TEST(VtkFilter, HonoursExtent)
 // A 90-degree rotation about z and a new origin: the mesh is the same mesh, rotated and moved.
 TEST(VtkFilter, HonoursDirection)
 {
-  const Phantom p = TorusPhantom();
+  const Phantom p = EllipsoidPhantom();
   const double r[9] = { 0, -1, 0, 1, 0, 0, 0, 0, 1 };
   const double origin[3] = { 5.0, -2.0, 3.0 };
   auto move = [&](const double* q, double* out) {
@@ -465,7 +482,7 @@ TEST(VtkFilter, HonoursDirection)
   rotated->SetOrigin(origin);
   std::array<double, 3> seed;
   move(p.seed.data(), seed.data());
-  Mesh expected = PhantomSegmentation("torus phantom", p);
+  Mesh expected = PhantomSegmentation("ellipsoid phantom", p);
   for (size_t q = 0; q < expected.PointCount(); ++q)
   {
     const double original[3] = { expected.points[3 * q], expected.points[3 * q + 1], expected.points[3 * q + 2] };
@@ -545,7 +562,7 @@ TEST(VtkFilter, ErrorsCarryTheLibraryMessage)
 
 TEST(VtkFilter, ProgressAndAbort)
 {
-  const Phantom p = TorusPhantom();
+  const Phantom p = EllipsoidPhantom();
   vtkNew<vtkBalloonSegmentation> filter;
   EventLog log;
   std::vector<double> fractions;
