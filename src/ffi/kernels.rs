@@ -1,0 +1,209 @@
+//! The geometry kernels on their own: marching cubes into a library-owned `BalloonTriMesh`,
+//! the mesh checks, and the self-intersection search, which copies its pairs into the
+//! caller's array with the size-query protocol (`BALLOON_BUFFER_TOO_SMALL` with the total).
+
+use std::mem::size_of;
+
+use super::boundary::{run, run_infallible, Failure};
+use super::mesh::{mesh_from_c, BalloonMesh, FlatMesh};
+use super::params::check_struct_size;
+use super::status::BalloonStatus;
+use super::volume::{volume_from_c, BalloonVolume};
+use crate::error::Error;
+use crate::marching_cubes::marching_cubes;
+use crate::mesh_checks;
+use crate::self_intersection::self_intersections;
+
+/// A mesh made by a kernel (opaque), owned by the caller until balloon_trimesh_free.
+pub struct BalloonTriMesh {
+    mesh: FlatMesh,
+}
+
+/// What balloon_mesh_check measures about a mesh.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BalloonMeshReport {
+    /// The caller sets it to sizeof(BalloonMeshReport).
+    pub struct_size: usize,
+    /// Every edge has exactly two triangles (0/1).
+    pub closed: u8,
+    /// Edge- and vertex-manifold, no degenerate triangles (0/1).
+    pub manifold: u8,
+    /// The two triangles of every edge traverse it in opposite directions (0/1).
+    pub oriented: u8,
+    /// Closed, oriented and every component encloses a positive volume (0/1).
+    pub outward: u8,
+    /// Pairs of intersecting triangles (a degenerate triangle counts as a pair with itself).
+    pub self_intersecting_pairs: usize,
+    pub euler_characteristic: i64,
+    /// -1 when the mesh is not a closed oriented manifold (the genus is then undefined).
+    pub genus: i64,
+    pub components: usize,
+    pub area_mm2: f64,
+    /// Enclosed signed volume, positive for outward normals.
+    pub volume_mm3: f64,
+}
+
+/// The isosurface `value = level` of `volume` (normals towards increasing values, world mm),
+/// computed on a pool of `threads` threads (0 = all cores; the mesh does not depend on it).
+/// On success `*out` receives a mesh to release with balloon_trimesh_free.
+///
+/// # Safety
+/// `volume` describes valid voxels (read during the call only); `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_marching_cubes(
+    volume: *const BalloonVolume,
+    level: f64,
+    threads: u32,
+    out: *mut *mut BalloonTriMesh,
+) -> BalloonStatus {
+    run(|| {
+        if out.is_null() {
+            return Err(Failure::null("out"));
+        }
+        // SAFETY: by the caller's promise.
+        let volume = unsafe { volume_from_c(volume)? };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads as usize)
+            .build()
+            .map_err(|e| Error::invalid_argument(format!("cannot start {threads} threads: {e}")))?;
+        let mesh = pool.install(|| marching_cubes(&volume, level))?;
+        let owned = Box::new(BalloonTriMesh {
+            mesh: FlatMesh::new(&mesh),
+        });
+        // SAFETY: non-NULL and writable.
+        unsafe { out.write(Box::into_raw(owned)) };
+        Ok(())
+    })
+}
+
+/// A view of a kernel mesh (vertex_state is NULL), valid until balloon_trimesh_free.
+///
+/// # Safety
+/// `m` is a live BalloonTriMesh; `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_trimesh_view(
+    m: *const BalloonTriMesh,
+    out: *mut BalloonMesh,
+) -> BalloonStatus {
+    run(|| {
+        // SAFETY: by the caller's promise.
+        let m = unsafe { m.as_ref() }.ok_or_else(|| Failure::null("m"))?;
+        if out.is_null() {
+            return Err(Failure::null("out"));
+        }
+        // SAFETY: non-NULL and writable.
+        unsafe { out.write(m.mesh.view(std::ptr::null())) };
+        Ok(())
+    })
+}
+
+/// Releases a kernel mesh; NULL is fine.
+///
+/// # Safety
+/// `m` is NULL or a live BalloonTriMesh, not used again afterwards.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_trimesh_free(m: *mut BalloonTriMesh) {
+    run_infallible((), || {
+        if !m.is_null() {
+            // SAFETY: made by Box::into_raw, released once by the caller's promise.
+            drop(unsafe { Box::from_raw(m) });
+        }
+    })
+}
+
+/// Checks a mesh (points: 3 doubles each, triangles: 3 indices each; NULL only with a count
+/// of 0). The caller sets `out->struct_size` to sizeof(BalloonMeshReport).
+///
+/// # Safety
+/// The arrays hold the counts given; `out` is a writable BalloonMeshReport.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_mesh_check(
+    points: *const f64,
+    point_count: usize,
+    triangles: *const u32,
+    triangle_count: usize,
+    out: *mut BalloonMeshReport,
+) -> BalloonStatus {
+    run(|| {
+        if out.is_null() {
+            return Err(Failure::null("out"));
+        }
+        // SAFETY: the leading size is read before the size of the rest is trusted.
+        let given = unsafe { std::ptr::addr_of!((*out).struct_size).read_unaligned() };
+        check_struct_size("BalloonMeshReport", given, size_of::<BalloonMeshReport>())?;
+        // SAFETY: by the caller's promise.
+        let mesh = unsafe { mesh_from_c(points, point_count, triangles, triangle_count)? };
+        let r = mesh_checks::check(&mesh);
+        let report = BalloonMeshReport {
+            struct_size: size_of::<BalloonMeshReport>(),
+            closed: r.closed().into(),
+            manifold: r.manifold().into(),
+            oriented: r.consistently_oriented().into(),
+            outward: r.outward().into(),
+            self_intersecting_pairs: self_intersections(&mesh).len(),
+            euler_characteristic: r.euler_characteristic,
+            genus: r.genus().unwrap_or(-1),
+            components: r.components,
+            area_mm2: r.area,
+            volume_mm3: r.signed_volume,
+        };
+        // SAFETY: writable, and of this library's size.
+        unsafe { out.write_unaligned(report) };
+        Ok(())
+    })
+}
+
+/// The pairs of intersecting triangles, 2 indices per pair (t0 < t1, or t0 == t1 for a
+/// degenerate triangle), sorted, copied into `pairs_out` (room for `pairs_capacity` pairs).
+/// `*pair_count_out` receives the number of pairs both on success and with
+/// BALLOON_BUFFER_TOO_SMALL (then nothing is copied): call first with pairs_out NULL and
+/// capacity 0 to size the buffer.
+///
+/// # Safety
+/// The mesh arrays hold the counts given; `pairs_out` is NULL or has room for
+/// `2 * pairs_capacity` indices; `pair_count_out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_self_intersections(
+    points: *const f64,
+    point_count: usize,
+    triangles: *const u32,
+    triangle_count: usize,
+    pairs_out: *mut u32,
+    pairs_capacity: usize,
+    pair_count_out: *mut usize,
+) -> BalloonStatus {
+    run(|| {
+        if pair_count_out.is_null() {
+            return Err(Failure::null("pair_count_out"));
+        }
+        if pairs_out.is_null() && pairs_capacity > 0 {
+            return Err(Failure::null("pairs_out (with a non-zero pairs_capacity)"));
+        }
+        // SAFETY: by the caller's promise.
+        let mesh = unsafe { mesh_from_c(points, point_count, triangles, triangle_count)? };
+        let pairs = self_intersections(&mesh);
+        // SAFETY: non-NULL and writable; the count is written with BUFFER_TOO_SMALL too.
+        unsafe { pair_count_out.write(pairs.len()) };
+        if pairs.len() > pairs_capacity {
+            return Err(Failure::new(
+                BalloonStatus::BALLOON_BUFFER_TOO_SMALL,
+                format!(
+                    "the mesh has {} self-intersecting pairs but pairs_out has room for {}; \
+                     pass a buffer of 2 * {} uint32_t",
+                    pairs.len(),
+                    pairs_capacity,
+                    pairs.len()
+                ),
+            ));
+        }
+        if !pairs.is_empty() {
+            // SAFETY: non-NULL (capacity ≥ pairs > 0) with room for 2 * capacity indices.
+            let dst = unsafe { std::slice::from_raw_parts_mut(pairs_out, 2 * pairs.len()) };
+            for (d, (a, b)) in dst.chunks_exact_mut(2).zip(pairs) {
+                d.copy_from_slice(&[a, b]);
+            }
+        }
+        Ok(())
+    })
+}

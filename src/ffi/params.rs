@@ -1,0 +1,217 @@
+//! `BalloonParams`, the C layout of [`balloon::BalloonParams`]: NaN stands for "not given"
+//! in the optional values, and `struct_size` lets the library reject a caller compiled
+//! against another layout instead of misreading it.
+
+use std::mem::size_of;
+
+use super::boundary::{run, Failure};
+use super::status::BalloonStatus;
+use crate::balloon::{self, forces::ForceWeights};
+use crate::error::Error;
+
+/// The balloon's parameters. Fill with `balloon_params_default`, then change what you need.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BalloonParams {
+    /// sizeof(BalloonParams); set by balloon_params_default, checked by balloon_init.
+    pub struct_size: usize,
+    /// Intensity of the structure; NaN = estimate around the first seed.
+    pub reference_intensity: f64,
+    /// Half-width of the intensity window; NaN = estimate around the first seed.
+    pub tolerance: f64,
+    /// Target edge length in mm; NaN = the mean voxel spacing.
+    pub edge_length_mm: f64,
+    pub elastic_weight: f64,
+    pub bending_weight: f64,
+    pub inflation_weight: f64,
+    /// Largest move of a vertex per step, as a fraction of the smallest spacing.
+    pub step_fraction: f64,
+    pub max_iterations: u32,
+    /// Steps between two self-intersection searches.
+    pub self_intersection_interval: u32,
+    /// Steps of deformation after each re-parametrisation.
+    pub refinement_iterations: u32,
+    pub max_reparametrizations: u32,
+    /// Leak guard: growing past this many vertices fails with BALLOON_LEAK.
+    pub max_vertices: u64,
+    /// Worker threads of the segmenter's own pool; 0 = all cores. The result does not depend
+    /// on it.
+    pub threads: u32,
+}
+
+fn optional(value: f64) -> Option<f64> {
+    (!value.is_nan()).then_some(value)
+}
+
+impl From<&balloon::BalloonParams> for BalloonParams {
+    fn from(p: &balloon::BalloonParams) -> Self {
+        let balloon::BalloonParams {
+            reference,
+            tolerance,
+            edge_length,
+            weights,
+            step_fraction,
+            max_iterations,
+            self_intersection_interval,
+            refinement_iterations,
+            max_reparametrizations,
+            max_vertices,
+            threads,
+        } = p.clone();
+        BalloonParams {
+            struct_size: size_of::<BalloonParams>(),
+            reference_intensity: reference.unwrap_or(f64::NAN),
+            tolerance: tolerance.unwrap_or(f64::NAN),
+            edge_length_mm: edge_length.unwrap_or(f64::NAN),
+            elastic_weight: weights.elastic,
+            bending_weight: weights.bending,
+            inflation_weight: weights.inflation,
+            step_fraction,
+            max_iterations,
+            self_intersection_interval,
+            refinement_iterations,
+            max_reparametrizations,
+            max_vertices: max_vertices as u64,
+            threads: u32::try_from(threads).unwrap_or(u32::MAX),
+        }
+    }
+}
+
+impl BalloonParams {
+    /// The Rust parameters; their validation is `Segmenter::new`'s.
+    pub(crate) fn to_rust(self) -> Result<balloon::BalloonParams, Failure> {
+        let max_vertices = usize::try_from(self.max_vertices).map_err(|_| {
+            Error::invalid_argument(format!(
+                "max_vertices is {}, more than this platform can address",
+                self.max_vertices
+            ))
+        })?;
+        Ok(balloon::BalloonParams {
+            reference: optional(self.reference_intensity),
+            tolerance: optional(self.tolerance),
+            edge_length: optional(self.edge_length_mm),
+            weights: ForceWeights {
+                elastic: self.elastic_weight,
+                bending: self.bending_weight,
+                inflation: self.inflation_weight,
+            },
+            step_fraction: self.step_fraction,
+            max_iterations: self.max_iterations,
+            self_intersection_interval: self.self_intersection_interval,
+            refinement_iterations: self.refinement_iterations,
+            max_reparametrizations: self.max_reparametrizations,
+            max_vertices,
+            threads: self.threads as usize,
+        })
+    }
+}
+
+/// Fails unless a caller's `struct_size` is this library's size of the struct.
+pub(crate) fn check_struct_size(name: &str, given: usize, expected: usize) -> Result<(), Failure> {
+    if given == expected {
+        Ok(())
+    } else {
+        Err(Failure::new(
+            BalloonStatus::BALLOON_PARAMS_SIZE_MISMATCH,
+            format!(
+                "{name}.struct_size is {given} but this library's {name} has {expected} bytes: \
+                 the program was compiled against another balloonseg.h; set struct_size to \
+                 sizeof({name}) and rebuild against the header of this library"
+            ),
+        ))
+    }
+}
+
+/// The parameters `params` points to, or the defaults when it is NULL.
+///
+/// # Safety
+/// `params` must be NULL or point to readable memory that starts with a `size_t`, and holds a
+/// whole `BalloonParams` when that size is this library's.
+pub(crate) unsafe fn params_from_c(
+    params: *const BalloonParams,
+) -> Result<balloon::BalloonParams, Failure> {
+    if params.is_null() {
+        return Ok(balloon::BalloonParams::default());
+    }
+    // SAFETY: only the leading size is read before it is known to match.
+    let given = unsafe { std::ptr::addr_of!((*params).struct_size).read_unaligned() };
+    check_struct_size("BalloonParams", given, size_of::<BalloonParams>())?;
+    // SAFETY: the struct has this library's size, so the caller's memory holds all of it.
+    unsafe { params.read_unaligned() }.to_rust()
+}
+
+/// Writes the default parameters (with struct_size set) to `out`.
+///
+/// # Safety
+/// `out` must be NULL or point to a writable `BalloonParams`.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_params_default(out: *mut BalloonParams) -> BalloonStatus {
+    run(|| {
+        if out.is_null() {
+            return Err(Failure::null("out"));
+        }
+        let defaults = BalloonParams::from(&balloon::BalloonParams::default());
+        // SAFETY: non-NULL and writable by the caller's promise.
+        unsafe { out.write_unaligned(defaults) };
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_round_trip_and_nan_means_not_given() {
+        let mut c = BalloonParams::from(&balloon::BalloonParams::default());
+        c.struct_size = 0;
+        assert_eq!(
+            unsafe { balloon_params_default(&mut c) },
+            BalloonStatus::BALLOON_OK
+        );
+        assert_eq!(c.struct_size, size_of::<BalloonParams>());
+        assert!(c.reference_intensity.is_nan() && c.tolerance.is_nan());
+        assert_eq!(c.to_rust().unwrap(), balloon::BalloonParams::default());
+
+        let given = balloon::BalloonParams {
+            reference: Some(-3.0),
+            tolerance: Some(2.0),
+            edge_length: Some(0.5),
+            weights: ForceWeights {
+                elastic: 0.1,
+                bending: 0.2,
+                inflation: 0.3,
+            },
+            step_fraction: 0.5,
+            max_iterations: 6,
+            self_intersection_interval: 7,
+            refinement_iterations: 8,
+            max_reparametrizations: 9,
+            max_vertices: 100,
+            threads: 2,
+        };
+        assert_eq!(BalloonParams::from(&given).to_rust().unwrap(), given);
+    }
+
+    #[test]
+    fn a_wrong_struct_size_names_both_sizes() {
+        let mut c = BalloonParams::from(&balloon::BalloonParams::default());
+        c.struct_size = 8;
+        let f = unsafe { params_from_c(&c) }.unwrap_err();
+        assert_eq!(f.status, BalloonStatus::BALLOON_PARAMS_SIZE_MISMATCH);
+        let expected = size_of::<BalloonParams>().to_string();
+        assert!(
+            f.message.contains(" 8 ") && f.message.contains(&expected),
+            "{}",
+            f.message
+        );
+        assert_eq!(
+            unsafe { params_from_c(std::ptr::null()) }.unwrap(),
+            balloon::BalloonParams::default()
+        );
+        assert_eq!(
+            unsafe { balloon_params_default(std::ptr::null_mut()) },
+            BalloonStatus::BALLOON_NULL_POINTER
+        );
+    }
+}

@@ -1,0 +1,361 @@
+//! The opaque `BalloonSegmenter` handle: a [`Segmenter`] over the caller's voxels plus the
+//! flat copy of its current mesh that `balloon_mesh` hands out as a view. The copy is
+//! refreshed after every call that changes the balloon — also after a failed or cancelled one,
+//! when the balloon is still the consistent mesh of the last completed step — so that a
+//! `const` handle can give out pointers that stay valid until the next mutating call.
+
+use std::ffi::{c_char, c_int, c_void, CString};
+use std::mem::size_of;
+
+use glam::DVec3;
+
+use super::boundary::{run, run_infallible, Failure};
+use super::mesh::{BalloonMesh, FlatMesh};
+use super::params::{check_struct_size, params_from_c, BalloonParams};
+use super::status::BalloonStatus;
+use super::volume::{volume_from_c, BalloonVolume};
+use crate::balloon::{Phase, Segmenter, VertexState};
+use crate::error::Result;
+use crate::mesh::TriMesh;
+
+/// The state of a vertex of the balloon, as in `BalloonMesh::vertex_state`.
+#[repr(C)]
+#[allow(non_camel_case_types)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BalloonVertexState {
+    /// Still moved by the forces.
+    BALLOON_VERTEX_MOVING = 0,
+    /// Reached the structure's border.
+    BALLOON_VERTEX_FROZEN_AT_BORDER = 1,
+    /// Belongs to a self-intersecting triangle (until the next re-parametrisation).
+    BALLOON_VERTEX_FROZEN_BY_SELF_INTERSECTION = 2,
+}
+
+impl From<VertexState> for BalloonVertexState {
+    fn from(state: VertexState) -> Self {
+        match state {
+            VertexState::Moving => BalloonVertexState::BALLOON_VERTEX_MOVING,
+            VertexState::FrozenAtBorder => BalloonVertexState::BALLOON_VERTEX_FROZEN_AT_BORDER,
+            VertexState::FrozenBySelfIntersection => {
+                BalloonVertexState::BALLOON_VERTEX_FROZEN_BY_SELF_INTERSECTION
+            }
+        }
+    }
+}
+
+/// What a segmentation did, besides the mesh.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BalloonStats {
+    /// The caller sets it to sizeof(BalloonStats) before calling balloon_stats.
+    pub struct_size: usize,
+    /// The reference intensity and tolerance in use (given or estimated).
+    pub reference_intensity: f64,
+    pub tolerance: f64,
+    pub edge_length_mm: f64,
+    /// Steps of deformation so far (inflation and refinement).
+    pub iterations: u32,
+    pub reparametrizations: u32,
+    pub seconds_inflation: f64,
+    pub seconds_self_intersection: f64,
+    pub seconds_reparametrization: f64,
+    pub seconds_refinement: f64,
+    pub seconds_validation: f64,
+    pub seconds_total: f64,
+}
+
+/// Returns non-zero to cancel the running call, which then returns BALLOON_CANCELLED. It is
+/// called only from the thread that called the library, with the fraction done (0 to 1) and
+/// the phase's name ("inflation", "self-intersection", "reparametrization", "refinement",
+/// "validation"), a string valid during the call only. It must not unwind (throw) into the
+/// library.
+pub type BalloonProgressCallback = Option<
+    unsafe extern "C" fn(fraction: f64, phase: *const c_char, user_data: *mut c_void) -> c_int,
+>;
+
+/// A balloon in a volume (opaque). Created by balloon_init, released by balloon_free. Used by
+/// one thread at a time; distinct handles are independent.
+pub struct BalloonSegmenter {
+    // Borrows the caller's voxels for 'static: balloon_init's contract keeps them alive until
+    // balloon_free drops this.
+    segmenter: Segmenter<'static, 'static>,
+    mesh: FlatMesh,
+    states: Vec<u8>,
+}
+
+impl BalloonSegmenter {
+    fn cache(&mut self, (mesh, states): (TriMesh, Vec<VertexState>)) {
+        self.mesh = FlatMesh::new(&mesh);
+        self.states = states
+            .into_iter()
+            .map(|s| BalloonVertexState::from(s) as u8)
+            .collect();
+    }
+
+    /// Runs a call that changes the balloon, then refreshes the cached mesh whatever the outcome.
+    fn mutate<T>(
+        &mut self,
+        call: impl FnOnce(&mut Segmenter<'static, 'static>) -> Result<T>,
+    ) -> Result<T> {
+        let result = call(&mut self.segmenter);
+        let current = self.segmenter.mesh();
+        self.cache(current);
+        result
+    }
+}
+
+/// # Safety
+/// `ptr` must be NULL or point to a live handle not used elsewhere during the call.
+unsafe fn handle<'a>(
+    ptr: *mut BalloonSegmenter,
+) -> std::result::Result<&'a mut BalloonSegmenter, Failure> {
+    // SAFETY: by the caller's promise.
+    unsafe { ptr.as_mut() }.ok_or_else(|| Failure::null("s"))
+}
+
+/// # Safety
+/// `seed` must be NULL or point to 3 readable doubles.
+unsafe fn seed_from_c(seed: *const f64) -> std::result::Result<DVec3, Failure> {
+    if seed.is_null() {
+        return Err(Failure::null("seed_world"));
+    }
+    // SAFETY: 3 doubles by the caller's promise.
+    Ok(DVec3::from_array(unsafe {
+        seed.cast::<[f64; 3]>().read_unaligned()
+    }))
+}
+
+/// Starts a balloon of about one voxel's radius at `seed_world` (x, y, z world mm).
+/// `params` may be NULL for the defaults. On success `*out` receives a new handle to release
+/// with balloon_free.
+///
+/// # Safety
+/// The voxels `volume` describes are borrowed, not copied: they must stay valid and unchanged
+/// until balloon_free. `seed_world` points to 3 doubles; `params` is NULL or filled by
+/// balloon_params_default; `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_init(
+    volume: *const BalloonVolume,
+    params: *const BalloonParams,
+    seed_world: *const f64,
+    out: *mut *mut BalloonSegmenter,
+) -> BalloonStatus {
+    run(|| {
+        if out.is_null() {
+            return Err(Failure::null("out"));
+        }
+        // SAFETY: by the caller's promises above.
+        let (volume, params, seed) = unsafe {
+            (
+                volume_from_c(volume)?,
+                params_from_c(params)?,
+                seed_from_c(seed_world)?,
+            )
+        };
+        let mut handle = BalloonSegmenter {
+            segmenter: Segmenter::new(volume, params, seed)?,
+            mesh: FlatMesh::default(),
+            states: Vec::new(),
+        };
+        let current = handle.segmenter.mesh();
+        handle.cache(current);
+        // SAFETY: non-NULL and writable.
+        unsafe { out.write(Box::into_raw(Box::new(handle))) };
+        Ok(())
+    })
+}
+
+/// Adds a seed sphere at `seed_world` (world mm), for a part the first seed does not reach.
+///
+/// # Safety
+/// `s` is a live handle; `seed_world` points to 3 doubles.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_add_seed(
+    s: *mut BalloonSegmenter,
+    seed_world: *const f64,
+) -> BalloonStatus {
+    run(|| {
+        // SAFETY: by the caller's promises.
+        let (h, seed) = unsafe { (handle(s)?, seed_from_c(seed_world)?) };
+        Ok(h.mutate(|segmenter| segmenter.add_seed(seed))?)
+    })
+}
+
+/// Up to `iterations` steps of inflation (stops early at equilibrium). `active_vertices_out`
+/// may be NULL; otherwise it receives the number of vertices still moving.
+///
+/// # Safety
+/// `s` is a live handle; `active_vertices_out` is NULL or writable.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_step(
+    s: *mut BalloonSegmenter,
+    iterations: u32,
+    active_vertices_out: *mut u32,
+) -> BalloonStatus {
+    run(|| {
+        // SAFETY: by the caller's promise.
+        let h = unsafe { handle(s)? };
+        let moving = h.mutate(|segmenter| segmenter.step(iterations))?;
+        if !active_vertices_out.is_null() {
+            // SAFETY: non-NULL and writable. Vertex ids are u32, so the count fits.
+            unsafe { active_vertices_out.write(u32::try_from(moving).unwrap_or(u32::MAX)) };
+        }
+        Ok(())
+    })
+}
+
+/// Freezes the vertices of every self-intersecting triangle; `*frozen_vertices_out` receives
+/// how many were newly frozen.
+///
+/// # Safety
+/// `s` is a live handle; `frozen_vertices_out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_freeze_self_intersections(
+    s: *mut BalloonSegmenter,
+    frozen_vertices_out: *mut usize,
+) -> BalloonStatus {
+    run(|| {
+        // SAFETY: by the caller's promise.
+        let h = unsafe { handle(s)? };
+        if frozen_vertices_out.is_null() {
+            return Err(Failure::null("frozen_vertices_out"));
+        }
+        let frozen = h.mutate(|segmenter| segmenter.freeze_self_intersections())?;
+        // SAFETY: non-NULL and writable.
+        unsafe { frozen_vertices_out.write(frozen) };
+        Ok(())
+    })
+}
+
+/// Replaces the balloon by the zero isosurface of its signed distance map, without its
+/// self-intersecting triangles (the method's re-parametrisation); every vertex moves again.
+///
+/// # Safety
+/// `s` is a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_reparametrize(s: *mut BalloonSegmenter) -> BalloonStatus {
+    run(|| {
+        // SAFETY: by the caller's promise.
+        let h = unsafe { handle(s)? };
+        Ok(h.mutate(|segmenter| segmenter.reparametrize())?)
+    })
+}
+
+/// The whole method to completion; balloon_mesh then gives the closed, 2-manifold, outward
+/// surface without self-intersections.
+///
+/// # Safety
+/// `s` is a live handle.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_segment(s: *mut BalloonSegmenter) -> BalloonStatus {
+    run(|| {
+        // SAFETY: by the caller's promise.
+        let h = unsafe { handle(s)? };
+        h.mutate(|segmenter| segmenter.segment())?;
+        Ok(())
+    })
+}
+
+/// A view of the current balloon (also after a failed or cancelled call: the mesh of the
+/// last completed step). The arrays belong to the handle and stay valid until the next call
+/// that changes it, or balloon_free.
+///
+/// # Safety
+/// `s` is a live handle; `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_mesh(
+    s: *const BalloonSegmenter,
+    out: *mut BalloonMesh,
+) -> BalloonStatus {
+    run(|| {
+        // SAFETY: by the caller's promise.
+        let h = unsafe { s.as_ref() }.ok_or_else(|| Failure::null("s"))?;
+        if out.is_null() {
+            return Err(Failure::null("out"));
+        }
+        // SAFETY: non-NULL and writable.
+        unsafe { out.write(h.mesh.view(h.states.as_ptr())) };
+        Ok(())
+    })
+}
+
+/// Statistics of the run so far. The caller sets `out->struct_size` to sizeof(BalloonStats).
+///
+/// # Safety
+/// `s` is a live handle; `out` is a writable BalloonStats.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_stats(
+    s: *const BalloonSegmenter,
+    out: *mut BalloonStats,
+) -> BalloonStatus {
+    run(|| {
+        // SAFETY: by the caller's promise.
+        let h = unsafe { s.as_ref() }.ok_or_else(|| Failure::null("s"))?;
+        if out.is_null() {
+            return Err(Failure::null("out"));
+        }
+        // SAFETY: the leading size is read before the size of the rest is trusted.
+        let given = unsafe { std::ptr::addr_of!((*out).struct_size).read_unaligned() };
+        check_struct_size("BalloonStats", given, size_of::<BalloonStats>())?;
+        let stats = h.segmenter.stats();
+        let seconds = stats.seconds;
+        let c = BalloonStats {
+            struct_size: size_of::<BalloonStats>(),
+            reference_intensity: stats.reference_intensity,
+            tolerance: stats.tolerance,
+            edge_length_mm: stats.edge_length,
+            iterations: stats.iterations,
+            reparametrizations: stats.reparametrizations,
+            seconds_inflation: seconds.inflation,
+            seconds_self_intersection: seconds.self_intersection,
+            seconds_reparametrization: seconds.reparametrization,
+            seconds_refinement: seconds.refinement,
+            seconds_validation: seconds.validation,
+            seconds_total: seconds.total(),
+        };
+        // SAFETY: writable, and of this library's size.
+        unsafe { out.write_unaligned(c) };
+        Ok(())
+    })
+}
+
+/// Reports progress to `cb` (NULL = none) with `user_data`, during the calls that follow on
+/// this handle; `cb` returning non-zero cancels the running call (BALLOON_CANCELLED), leaving
+/// the handle usable.
+///
+/// # Safety
+/// `s` is a live handle; `cb` and `user_data` stay valid while they are set.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_set_progress_callback(
+    s: *mut BalloonSegmenter,
+    cb: BalloonProgressCallback,
+    user_data: *mut c_void,
+) -> BalloonStatus {
+    run(|| {
+        // SAFETY: by the caller's promise.
+        let h = unsafe { handle(s)? };
+        h.segmenter.set_progress(cb.map(|cb| {
+            Box::new(move |fraction: f64, phase: Phase| {
+                let name = CString::new(phase.name()).unwrap_or_default();
+                // SAFETY: the caller keeps `cb` and `user_data` valid while they are set.
+                unsafe { cb(fraction, name.as_ptr(), user_data) == 0 }
+            }) as Box<dyn FnMut(f64, Phase) -> bool>
+        }));
+        Ok(())
+    })
+}
+
+/// Releases a handle made by balloon_init; NULL is fine. Afterwards the caller's voxels are
+/// no longer used.
+///
+/// # Safety
+/// `s` is NULL or a live handle, not used again afterwards.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_free(s: *mut BalloonSegmenter) {
+    run_infallible((), || {
+        if !s.is_null() {
+            // SAFETY: made by Box::into_raw in balloon_init, released once by the caller's promise.
+            drop(unsafe { Box::from_raw(s) });
+        }
+    })
+}
