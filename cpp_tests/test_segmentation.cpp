@@ -142,12 +142,12 @@ struct Scan
   std::array<double, 3> seed;
 };
 
-Scan ReadScan(const std::string& path, std::array<int, 3> seed_index)
+Scan ReadScan(const std::string& path, std::array<double, 3> seed)
 {
   vtkNew<vtkMetaImageReader> reader;
   reader->SetFileName(path.c_str());
   reader->Update();
-  Scan scan{ vtkSmartPointer<vtkImageData>::New(), support::ReadMetaGeometry(path), {} };
+  Scan scan{ vtkSmartPointer<vtkImageData>::New(), support::ReadMetaGeometry(path), seed };
   scan.image->ShallowCopy(reader->GetOutput());
   const double* read_direction = reader->GetOutput()->GetDirectionMatrix()->GetData();
   if (!std::equal(read_direction, read_direction + 9, scan.header.direction.begin()))
@@ -162,7 +162,6 @@ Scan ReadScan(const std::string& path, std::array<int, 3> seed_index)
     EXPECT_DOUBLE_EQ(scan.image->GetSpacing()[a], scan.header.spacing[a]);
     EXPECT_DOUBLE_EQ(scan.image->GetOrigin()[a], scan.header.origin[a]);
   }
-  scan.image->TransformIndexToPhysicalPoint(seed_index.data(), scan.seed.data());
   return scan;
 }
 
@@ -178,8 +177,10 @@ Mesh SegmentScanDirectly(const Scan& scan)
 
 const char* kAorta = "vmtk-aorta/aorta.mha";
 const char* kCarotid = "vtk-carotid/carotid.mha";
-const std::array<int, 3> kAortaSeed = { 74, 150, 15 };
-const std::array<int, 3> kCarotidSeed = { 17, 23, 8 };
+// The data README's seeds, world mm (voxels (74, 150, 15) and (17, 23, 8), rounded as the Rust
+// tests use them).
+const std::array<double, 3> kAortaSeed = { -221.484, -156.445, 22.501 };
+const std::array<double, 3> kCarotidSeed = { 117.0, 103.0, 9.0 };
 
 // Every segmentation once per process.
 const Mesh& Cached(const std::string& key, const std::function<Mesh()>& make)
@@ -389,10 +390,10 @@ Mesh RunFilter(vtkImageData* image, const std::array<double, 3>& seed, EventLog*
   return FromPolyData(filter->GetOutput());
 }
 
-void FilterMatchesCApi(const char* relative, std::array<int, 3> seed_index, const std::string& key)
+void FilterMatchesCApi(const char* relative, std::array<double, 3> seed, const std::string& key)
 {
   const std::string path = support::DataDir() + "/" + relative;
-  const Scan scan = ReadScan(path, seed_index);
+  const Scan scan = ReadScan(path, seed);
   const Mesh& direct = Cached(key, [&] { return SegmentScanDirectly(scan); });
   ASSERT_GT(direct.TriangleCount(), 0u) << key << ": the C ABI gave no mesh; the filter is not run";
 
