@@ -184,7 +184,7 @@ typedef struct BalloonStats {
 // called only from the thread that called the library, with the fraction done (0 to 1) and
 // the phase's name ("inflation", "self-intersection", "reparametrization", "refinement",
 // "validation"), a string valid during the call only. It must not unwind (throw) into the
-// library.
+// library, nor call the library with the same handle.
 typedef int (*BalloonProgressCallback)(double fraction, const char *phase, void *user_data);
 
 #ifdef __cplusplus

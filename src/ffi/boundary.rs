@@ -34,6 +34,15 @@ impl Failure {
     }
 }
 
+/// Fails with `BALLOON_NULL_POINTER`, naming `argument`, when `ptr` is NULL.
+pub(crate) fn require<T>(ptr: *const T, argument: &str) -> Result<(), Failure> {
+    if ptr.is_null() {
+        Err(Failure::null(argument))
+    } else {
+        Ok(())
+    }
+}
+
 impl From<Error> for Failure {
     fn from(e: Error) -> Self {
         Failure::new(BalloonStatus::from_kind(e.kind()), e.message())

@@ -4,7 +4,7 @@
 
 use std::mem::size_of;
 
-use super::boundary::{run, run_infallible, Failure};
+use super::boundary::{require, run, run_infallible, Failure};
 use super::mesh::{mesh_from_c, BalloonMesh, FlatMesh};
 use super::params::check_struct_size;
 use super::status::BalloonStatus;
@@ -58,9 +58,7 @@ pub unsafe extern "C" fn balloon_marching_cubes(
     out: *mut *mut BalloonTriMesh,
 ) -> BalloonStatus {
     run(|| {
-        if out.is_null() {
-            return Err(Failure::null("out"));
-        }
+        require(out, "out")?;
         // SAFETY: by the caller's promise.
         let volume = unsafe { volume_from_c(volume)? };
         let pool = rayon::ThreadPoolBuilder::new()
@@ -89,9 +87,7 @@ pub unsafe extern "C" fn balloon_trimesh_view(
     run(|| {
         // SAFETY: by the caller's promise.
         let m = unsafe { m.as_ref() }.ok_or_else(|| Failure::null("m"))?;
-        if out.is_null() {
-            return Err(Failure::null("out"));
-        }
+        require(out, "out")?;
         // SAFETY: non-NULL and writable.
         unsafe { out.write(m.mesh.view(std::ptr::null())) };
         Ok(())
@@ -126,12 +122,9 @@ pub unsafe extern "C" fn balloon_mesh_check(
     out: *mut BalloonMeshReport,
 ) -> BalloonStatus {
     run(|| {
-        if out.is_null() {
-            return Err(Failure::null("out"));
-        }
-        // SAFETY: the leading size is read before the size of the rest is trusted.
-        let given = unsafe { std::ptr::addr_of!((*out).struct_size).read_unaligned() };
-        check_struct_size("BalloonMeshReport", given, size_of::<BalloonMeshReport>())?;
+        require(out, "out")?;
+        // SAFETY: non-NULL; the leading size is read before the rest is trusted.
+        unsafe { check_struct_size(out, "BalloonMeshReport")? };
         // SAFETY: by the caller's promise.
         let mesh = unsafe { mesh_from_c(points, point_count, triangles, triangle_count)? };
         let r = mesh_checks::check(&mesh);
@@ -174,9 +167,7 @@ pub unsafe extern "C" fn balloon_self_intersections(
     pair_count_out: *mut usize,
 ) -> BalloonStatus {
     run(|| {
-        if pair_count_out.is_null() {
-            return Err(Failure::null("pair_count_out"));
-        }
+        require(pair_count_out, "pair_count_out")?;
         if pairs_out.is_null() && pairs_capacity > 0 {
             return Err(Failure::null("pairs_out (with a non-zero pairs_capacity)"));
         }

@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 
-use super::boundary::Failure;
+use super::boundary::{require, Failure};
 use crate::error::Error;
 use crate::mesh::TriMesh;
 
@@ -56,9 +56,7 @@ unsafe fn triples<'a, T>(ptr: *const T, count: usize, what: &str) -> Result<&'a 
     if count == 0 {
         return Ok(&[]);
     }
-    if ptr.is_null() {
-        return Err(Failure::null(what));
-    }
+    require(ptr, what)?;
     let len = count
         .checked_mul(3)
         .filter(|&n| {

@@ -9,7 +9,7 @@
 //! - **Messages.** A failure's message (what is wrong and what to change) is kept per thread
 //!   until the next failure on that thread; `balloon_last_error_message` copies it
 //!   snprintf-style. `balloon_status_string` describes a status statically.
-//! - **Panics** never cross the boundary: every body runs in [`boundary`], which turns a panic
+//! - **Panics** never cross the boundary: every body runs in `boundary::run`, which turns a panic
 //!   into `BALLOON_PANIC`. After it, only `balloon_free` is safe on the handle.
 //! - **Ownership and lifetimes.** `BalloonSegmenter` and `BalloonTriMesh` are opaque, made by
 //!   `balloon_init` / `balloon_marching_cubes`, released once by `balloon_free` /

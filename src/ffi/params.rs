@@ -4,7 +4,7 @@
 
 use std::mem::size_of;
 
-use super::boundary::{run, Failure};
+use super::boundary::{require, run, Failure};
 use super::status::BalloonStatus;
 use crate::balloon::{self, forces::ForceWeights};
 use crate::error::Error;
@@ -106,8 +106,16 @@ impl BalloonParams {
     }
 }
 
-/// Fails unless a caller's `struct_size` is this library's size of the struct.
-pub(crate) fn check_struct_size(name: &str, given: usize, expected: usize) -> Result<(), Failure> {
+/// Fails unless the `struct_size` that the caller's struct at `ptr` starts with is this
+/// library's size of `T`; reads nothing else.
+///
+/// # Safety
+/// `T` is one of the `#[repr(C)]` structs that start with `struct_size: usize`; `ptr` is
+/// non-NULL and points to at least that leading size.
+pub(crate) unsafe fn check_struct_size<T>(ptr: *const T, name: &str) -> Result<(), Failure> {
+    // SAFETY: by the caller's promise, the struct starts with a readable size_t.
+    let given = unsafe { ptr.cast::<usize>().read_unaligned() };
+    let expected = size_of::<T>();
     if given == expected {
         Ok(())
     } else {
@@ -133,9 +141,8 @@ pub(crate) unsafe fn params_from_c(
     if params.is_null() {
         return Ok(balloon::BalloonParams::default());
     }
-    // SAFETY: only the leading size is read before it is known to match.
-    let given = unsafe { std::ptr::addr_of!((*params).struct_size).read_unaligned() };
-    check_struct_size("BalloonParams", given, size_of::<BalloonParams>())?;
+    // SAFETY: non-NULL; only the leading size is read before it is known to match.
+    unsafe { check_struct_size(params, "BalloonParams")? };
     // SAFETY: the struct has this library's size, so the caller's memory holds all of it.
     unsafe { params.read_unaligned() }.to_rust()
 }
@@ -147,9 +154,7 @@ pub(crate) unsafe fn params_from_c(
 #[no_mangle]
 pub unsafe extern "C" fn balloon_params_default(out: *mut BalloonParams) -> BalloonStatus {
     run(|| {
-        if out.is_null() {
-            return Err(Failure::null("out"));
-        }
+        require(out, "out")?;
         let defaults = BalloonParams::from(&balloon::BalloonParams::default());
         // SAFETY: non-NULL and writable by the caller's promise.
         unsafe { out.write_unaligned(defaults) };

@@ -9,7 +9,7 @@ use std::mem::size_of;
 
 use glam::DVec3;
 
-use super::boundary::{run, run_infallible, Failure};
+use super::boundary::{require, run, run_infallible, Failure};
 use super::mesh::{BalloonMesh, FlatMesh};
 use super::params::{check_struct_size, params_from_c, BalloonParams};
 use super::status::BalloonStatus;
@@ -68,7 +68,7 @@ pub struct BalloonStats {
 /// called only from the thread that called the library, with the fraction done (0 to 1) and
 /// the phase's name ("inflation", "self-intersection", "reparametrization", "refinement",
 /// "validation"), a string valid during the call only. It must not unwind (throw) into the
-/// library.
+/// library, nor call the library with the same handle.
 pub type BalloonProgressCallback = Option<
     unsafe extern "C" fn(fraction: f64, phase: *const c_char, user_data: *mut c_void) -> c_int,
 >;
@@ -116,9 +116,7 @@ unsafe fn handle<'a>(
 /// # Safety
 /// `seed` must be NULL or point to 3 readable doubles.
 unsafe fn seed_from_c(seed: *const f64) -> std::result::Result<DVec3, Failure> {
-    if seed.is_null() {
-        return Err(Failure::null("seed_world"));
-    }
+    require(seed, "seed_world")?;
     // SAFETY: 3 doubles by the caller's promise.
     Ok(DVec3::from_array(unsafe {
         seed.cast::<[f64; 3]>().read_unaligned()
@@ -141,9 +139,7 @@ pub unsafe extern "C" fn balloon_init(
     out: *mut *mut BalloonSegmenter,
 ) -> BalloonStatus {
     run(|| {
-        if out.is_null() {
-            return Err(Failure::null("out"));
-        }
+        require(out, "out")?;
         // SAFETY: by the caller's promises above.
         let (volume, params, seed) = unsafe {
             (
@@ -217,9 +213,7 @@ pub unsafe extern "C" fn balloon_freeze_self_intersections(
     run(|| {
         // SAFETY: by the caller's promise.
         let h = unsafe { handle(s)? };
-        if frozen_vertices_out.is_null() {
-            return Err(Failure::null("frozen_vertices_out"));
-        }
+        require(frozen_vertices_out, "frozen_vertices_out")?;
         let frozen = h.mutate(|segmenter| segmenter.freeze_self_intersections())?;
         // SAFETY: non-NULL and writable.
         unsafe { frozen_vertices_out.write(frozen) };
@@ -270,9 +264,7 @@ pub unsafe extern "C" fn balloon_mesh(
     run(|| {
         // SAFETY: by the caller's promise.
         let h = unsafe { s.as_ref() }.ok_or_else(|| Failure::null("s"))?;
-        if out.is_null() {
-            return Err(Failure::null("out"));
-        }
+        require(out, "out")?;
         // SAFETY: non-NULL and writable.
         unsafe { out.write(h.mesh.view(h.states.as_ptr())) };
         Ok(())
@@ -291,12 +283,9 @@ pub unsafe extern "C" fn balloon_stats(
     run(|| {
         // SAFETY: by the caller's promise.
         let h = unsafe { s.as_ref() }.ok_or_else(|| Failure::null("s"))?;
-        if out.is_null() {
-            return Err(Failure::null("out"));
-        }
-        // SAFETY: the leading size is read before the size of the rest is trusted.
-        let given = unsafe { std::ptr::addr_of!((*out).struct_size).read_unaligned() };
-        check_struct_size("BalloonStats", given, size_of::<BalloonStats>())?;
+        require(out, "out")?;
+        // SAFETY: non-NULL; the leading size is read before the rest is trusted.
+        unsafe { check_struct_size(out, "BalloonStats")? };
         let stats = h.segmenter.stats();
         let seconds = stats.seconds;
         let c = BalloonStats {
@@ -358,4 +347,106 @@ pub unsafe extern "C" fn balloon_free(s: *mut BalloonSegmenter) {
             drop(unsafe { Box::from_raw(s) });
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::phantom::{self, PhantomOptions, Shape};
+    use crate::volume::VoxelBuffer;
+
+    unsafe extern "C" fn cancel_third(_: f64, _: *const c_char, calls: *mut c_void) -> c_int {
+        let calls = unsafe { &mut *calls.cast::<c_int>() };
+        *calls += 1;
+        c_int::from(*calls == 3)
+    }
+
+    fn flat(view: &BalloonMesh) -> (Vec<f64>, Vec<u32>, Vec<u8>) {
+        unsafe {
+            (
+                std::slice::from_raw_parts(view.points, 3 * view.point_count).to_vec(),
+                std::slice::from_raw_parts(view.triangles, 3 * view.triangle_count).to_vec(),
+                std::slice::from_raw_parts(view.vertex_state, view.point_count).to_vec(),
+            )
+        }
+    }
+
+    #[test]
+    fn a_cancelled_handle_keeps_a_valid_mesh_and_finishes_like_the_safe_api() {
+        let p = phantom::render(Shape::Sphere, &PhantomOptions::default()).unwrap();
+        let VoxelBuffer::F32(voxels) = p.image.buffer() else {
+            panic!("phantoms are float32")
+        };
+        let [ni, nj, _] = p.image.dims();
+        let g = p.image.geometry();
+        let volume = BalloonVolume {
+            data: voxels.as_ptr().cast(),
+            scalar_type: 6,
+            dims: p.image.dims(),
+            strides: [1, ni as isize, (ni * nj) as isize],
+            spacing: g.spacing(),
+            origin: g.origin(),
+            direction: g.direction(),
+        };
+        let seed = p.seed_world().to_array();
+        let mut s = std::ptr::null_mut();
+        let mut view = std::mem::MaybeUninit::<BalloonMesh>::uninit();
+        let mut calls: c_int = 0;
+        unsafe {
+            assert_eq!(
+                balloon_init(&volume, std::ptr::null(), seed.as_ptr(), &mut s),
+                BalloonStatus::BALLOON_OK
+            );
+            let calls_ptr = (&mut calls as *mut c_int).cast();
+            balloon_set_progress_callback(s, Some(cancel_third), calls_ptr);
+            assert_eq!(balloon_segment(s), BalloonStatus::BALLOON_CANCELLED);
+            assert_eq!(calls, 3);
+            assert_eq!(
+                balloon_mesh(s, view.as_mut_ptr()),
+                BalloonStatus::BALLOON_OK
+            );
+            let (points, triangles, _) = flat(&view.assume_init());
+            let cancelled = TriMesh::new(
+                points.chunks_exact(3).map(DVec3::from_slice).collect(),
+                triangles
+                    .chunks_exact(3)
+                    .map(|t| [t[0], t[1], t[2]])
+                    .collect(),
+            )
+            .unwrap();
+            assert!(crate::mesh_checks::check(&cancelled).is_valid_closed_surface());
+
+            balloon_set_progress_callback(s, None, std::ptr::null_mut());
+            assert_eq!(balloon_segment(s), BalloonStatus::BALLOON_OK);
+            assert_eq!(
+                balloon_mesh(s, view.as_mut_ptr()),
+                BalloonStatus::BALLOON_OK
+            );
+        }
+        let from_c = flat(unsafe { &view.assume_init() });
+        unsafe { balloon_free(s) };
+
+        // The safe API, cancelled at the same point and resumed, gives the same mesh.
+        let mut safe = Segmenter::new(
+            p.image.view(),
+            crate::balloon::BalloonParams::default(),
+            p.seed_world(),
+        )
+        .unwrap();
+        let mut calls = 0;
+        safe.set_progress(Some(Box::new(move |_, _| {
+            calls += 1;
+            calls != 3
+        })));
+        assert!(safe.segment().is_err());
+        safe.set_progress(None);
+        let (mesh, states) = safe.segment().unwrap();
+        let expected = FlatMesh::new(&mesh);
+        assert_eq!(from_c.0, expected.points);
+        assert_eq!(from_c.1, expected.triangles);
+        assert_eq!(
+            from_c.2,
+            states.iter().map(|&s| s as u8).collect::<Vec<_>>()
+        );
+    }
 }

@@ -6,7 +6,7 @@
 use std::ffi::c_void;
 use std::mem::{align_of, size_of};
 
-use super::boundary::Failure;
+use super::boundary::{require, Failure};
 use crate::error::Error;
 use crate::geometry::Geometry;
 use crate::volume::{Scalar, ScalarType, TypedVolume, Volume};
@@ -126,9 +126,7 @@ pub(crate) unsafe fn volume_from_c<'v>(
 ) -> Result<Volume<'v>, Failure> {
     // SAFETY: NULL or readable, by the caller's promise.
     let v = unsafe { volume.as_ref() }.ok_or_else(|| Failure::null("volume"))?;
-    if v.data.is_null() {
-        return Err(Failure::null("volume->data"));
-    }
+    require(v.data, "volume->data")?;
     let scalar_type = scalar_type_from_c(v.scalar_type)?;
     let geometry = Geometry::new(v.spacing, v.origin, v.direction)?;
     // SAFETY: forwarded from the caller.
@@ -232,6 +230,28 @@ mod tests {
         let f = failure(&described(data.as_ptr().cast(), 8, [2, 2, 2], [1, 2, 4]));
         assert_eq!(f.status, BalloonStatus::BALLOON_INVALID_VOLUME);
         assert!(f.message.contains("scalar_type is 8"), "{}", f.message);
+    }
+
+    #[test]
+    fn the_c_scalar_type_values_name_the_same_types() {
+        use BalloonScalarType::*;
+        let c = [
+            BALLOON_SCALAR_U8,
+            BALLOON_SCALAR_I8,
+            BALLOON_SCALAR_U16,
+            BALLOON_SCALAR_I16,
+            BALLOON_SCALAR_U32,
+            BALLOON_SCALAR_I32,
+            BALLOON_SCALAR_F32,
+            BALLOON_SCALAR_F64,
+        ];
+        for (c, rust) in c.into_iter().zip(ScalarType::ALL) {
+            assert_eq!(scalar_type_from_c(c as u32).unwrap(), rust);
+            assert!(
+                format!("{c:?}").ends_with(&format!("{rust:?}")),
+                "{c:?} {rust:?}"
+            );
+        }
     }
 
     #[test]

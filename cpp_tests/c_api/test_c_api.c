@@ -1,0 +1,437 @@
+/* The C API from C: every function on its success path and on every error path, against
+ * include/balloonseg.h and libballoonseg.so only. Exits non-zero when a check fails. */
+#include <stdint.h>
+
+#include "test_support.h"
+
+static const Ball BALL = {11.5, 12.0, 11.0, 7.0};
+
+static void test_version_and_status_strings(void) {
+  char expected[64];
+  snprintf(expected, sizeof expected, "%d.%d.%d", BALLOON_VERSION_MAJOR, BALLOON_VERSION_MINOR,
+           BALLOON_VERSION_PATCH);
+  CHECK(strcmp(balloon_version(), expected) == 0, "version %s, macros %s", balloon_version(),
+        expected);
+  for (int s = BALLOON_OK; s <= BALLOON_PANIC; ++s) {
+    const char *text = balloon_status_string((BalloonStatus)s);
+    CHECK(text != NULL && strlen(text) > 0, "status %d has no description", s);
+    CHECK(strcmp(text, "unknown status") != 0, "status %d is unknown", s);
+    for (int t = BALLOON_OK; t < s; ++t)
+      CHECK(strcmp(text, balloon_status_string((BalloonStatus)t)) != 0,
+            "statuses %d and %d share a description", s, t);
+  }
+  CHECK(strcmp(balloon_status_string((BalloonStatus)99), "unknown status") == 0, "99: %s",
+        balloon_status_string((BalloonStatus)99));
+  CHECK(strcmp(balloon_status_string((BalloonStatus)-1), "unknown status") == 0, "-1");
+}
+
+static void test_last_error_message(void) {
+  char buffer[8];
+  char full[512];
+  EXPECT_ERROR(balloon_params_default(NULL), BALLOON_NULL_POINTER, "out");
+  size_t n = balloon_last_error_message(NULL, 0);
+  CHECK(n > 8, "message length %zu", n);
+  CHECK(balloon_last_error_message(full, sizeof full) == n, "same length into a big buffer");
+  CHECK(strlen(full) == n, "the whole message is copied");
+  memset(buffer, 'x', sizeof buffer);
+  CHECK(balloon_last_error_message(buffer, 5) == n, "the full length when truncated");
+  CHECK(memcmp(buffer, full, 4) == 0 && buffer[4] == '\0' && buffer[5] == 'x',
+        "4 bytes and a NUL, nothing more");
+  CHECK(balloon_last_error_message(buffer, 1) == n && buffer[0] == '\0', "size 1: just a NUL");
+  CHECK(balloon_last_error_message(NULL, 16) == n, "a NULL buffer only measures");
+  /* A success does not clear it (errno-like). */
+  BalloonParams p;
+  EXPECT_OK(balloon_params_default(&p));
+  CHECK(balloon_last_error_message(NULL, 0) == n, "kept after a success");
+}
+
+static void test_params(void) {
+  BalloonParams p;
+  EXPECT_OK(balloon_params_default(&p));
+  CHECK(p.struct_size == sizeof(BalloonParams), "struct_size %zu", p.struct_size);
+  CHECK(isnan(p.reference_intensity) && isnan(p.tolerance) && isnan(p.edge_length_mm),
+        "estimated values are NaN");
+  CHECK(p.max_iterations > 0 && p.self_intersection_interval > 0 && p.max_vertices >= 64 &&
+            p.step_fraction > 0 && p.threads == 0,
+        "defaults");
+}
+
+static void test_init_errors(void) {
+  void *buffer = NULL;
+  BalloonVolume good = ball_volume(&BALL, 1, BALLOON_SCALAR_I16, I_FASTEST, &buffer);
+  BalloonParams p = window_params(1);
+  double seed[3];
+  index_to_world(&BALL, seed);
+  BalloonSegmenter *const sentinel = (BalloonSegmenter *)(uintptr_t)0x1234;
+  BalloonSegmenter *s = sentinel;
+  BalloonVolume v;
+
+  EXPECT_ERROR(balloon_init(NULL, &p, seed, &s), BALLOON_NULL_POINTER, "volume");
+  EXPECT_ERROR(balloon_init(&good, &p, NULL, &s), BALLOON_NULL_POINTER, "seed_world");
+  EXPECT_ERROR(balloon_init(&good, &p, seed, NULL), BALLOON_NULL_POINTER, "out");
+  v = good;
+  v.data = NULL;
+  EXPECT_ERROR(balloon_init(&v, &p, seed, &s), BALLOON_NULL_POINTER, "volume->data");
+
+  BalloonParams wrong = p;
+  wrong.struct_size = sizeof(BalloonParams) - 8;
+  char sizes[64];
+  snprintf(sizes, sizeof sizes, "%zu", sizeof(BalloonParams));
+  EXPECT_ERROR(balloon_init(&good, &wrong, seed, &s), BALLOON_PARAMS_SIZE_MISMATCH, sizes);
+  wrong = p;
+  wrong.max_iterations = 0;
+  EXPECT_ERROR(balloon_init(&good, &wrong, seed, &s), BALLOON_INVALID_ARGUMENT, "max_iterations");
+  wrong = p;
+  wrong.tolerance = -1;
+  EXPECT_ERROR(balloon_init(&good, &wrong, seed, &s), BALLOON_INVALID_ARGUMENT, "tolerance");
+
+  v = good;
+  v.dims[1] = 0;
+  EXPECT_ERROR(balloon_init(&v, &p, seed, &s), BALLOON_INVALID_VOLUME, "dims[1] is 0");
+  v = good;
+  v.dims[0] = SIZE_MAX / 2;
+  v.dims[2] = 4;
+  EXPECT_ERROR(balloon_init(&v, &p, seed, &s), BALLOON_INVALID_VOLUME, "overflow");
+  v = good;
+  v.strides[2] = PTRDIFF_MAX / 4;
+  EXPECT_ERROR(balloon_init(&v, &p, seed, &s), BALLOON_INVALID_VOLUME, "strides");
+  v = good;
+  v.strides[1] = PTRDIFF_MIN / 64; /* would start far below address 0 */
+  EXPECT_ERROR(balloon_init(&v, &p, seed, &s), BALLOON_INVALID_VOLUME, "strides");
+  v = good;
+  v.data = (const char *)good.data + 1; /* int16 at an odd address */
+  EXPECT_ERROR(balloon_init(&v, &p, seed, &s), BALLOON_INVALID_VOLUME, "aligned");
+  v = good;
+  v.spacing[1] = NAN;
+  EXPECT_ERROR(balloon_init(&v, &p, seed, &s), BALLOON_INVALID_VOLUME, "spacing[1]");
+  v = good;
+  v.direction[4] = 0; /* j axis = 0 */
+  EXPECT_ERROR(balloon_init(&v, &p, seed, &s), BALLOON_INVALID_VOLUME, "singular");
+  v = good;
+  v.scalar_type = 8;
+  EXPECT_ERROR(balloon_init(&v, &p, seed, &s), BALLOON_INVALID_VOLUME, "scalar_type");
+  v.scalar_type = 0xFFFFFFFFu;
+  EXPECT_ERROR(balloon_init(&v, &p, seed, &s), BALLOON_INVALID_VOLUME, "scalar_type");
+
+  double outside[3] = {1000.0, 0.0, 0.0};
+  EXPECT_ERROR(balloon_init(&good, &p, outside, &s), BALLOON_INVALID_ARGUMENT, "outside");
+  double background[3] = {ORIGIN[0] + 1.0, ORIGIN[1] + 1.0, ORIGIN[2] + 1.0};
+  EXPECT_ERROR(balloon_init(&good, &p, background, &s), BALLOON_INVALID_ARGUMENT, "background");
+  CHECK(s == sentinel, "no output is written on failure");
+
+  /* NULL params = defaults, with the window estimated around the seed. */
+  EXPECT_OK(balloon_init(&good, NULL, seed, &s));
+  CHECK(s != sentinel && s != NULL, "a handle");
+  BalloonStats stats;
+  stats.struct_size = sizeof stats;
+  EXPECT_OK(balloon_stats(s, &stats));
+  CHECK(stats.reference_intensity > 100 && stats.tolerance > 0, "estimated %g +- %g",
+        stats.reference_intensity, stats.tolerance);
+  balloon_free(s);
+  free(buffer);
+}
+
+/* Every handle function with a NULL handle or output; then stats with a wrong size. */
+static void test_handle_errors(BalloonSegmenter *s, const double seed[3]) {
+  BalloonMesh m;
+  BalloonStats stats;
+  size_t frozen = 777;
+  EXPECT_ERROR(balloon_add_seed(NULL, seed), BALLOON_NULL_POINTER, "s");
+  EXPECT_ERROR(balloon_add_seed(s, NULL), BALLOON_NULL_POINTER, "seed_world");
+  double outside[3] = {-1000.0, 0.0, 0.0};
+  EXPECT_ERROR(balloon_add_seed(s, outside), BALLOON_INVALID_ARGUMENT, "outside");
+  double background[3] = {ORIGIN[0] + 1.0, ORIGIN[1] + 1.0, ORIGIN[2] + 1.0};
+  EXPECT_ERROR(balloon_add_seed(s, background), BALLOON_INVALID_ARGUMENT, "background");
+  EXPECT_ERROR(balloon_step(NULL, 1, NULL), BALLOON_NULL_POINTER, "s");
+  EXPECT_ERROR(balloon_freeze_self_intersections(NULL, &frozen), BALLOON_NULL_POINTER, "s");
+  EXPECT_ERROR(balloon_freeze_self_intersections(s, NULL), BALLOON_NULL_POINTER,
+               "frozen_vertices_out");
+  EXPECT_ERROR(balloon_reparametrize(NULL), BALLOON_NULL_POINTER, "s");
+  EXPECT_ERROR(balloon_segment(NULL), BALLOON_NULL_POINTER, "s");
+  EXPECT_ERROR(balloon_mesh(NULL, &m), BALLOON_NULL_POINTER, "s");
+  EXPECT_ERROR(balloon_mesh(s, NULL), BALLOON_NULL_POINTER, "out");
+  EXPECT_ERROR(balloon_stats(NULL, &stats), BALLOON_NULL_POINTER, "s");
+  EXPECT_ERROR(balloon_stats(s, NULL), BALLOON_NULL_POINTER, "out");
+  stats.struct_size = 3;
+  EXPECT_ERROR(balloon_stats(s, &stats), BALLOON_PARAMS_SIZE_MISMATCH, "BalloonStats");
+  CHECK(stats.struct_size == 3, "nothing written on failure");
+  EXPECT_ERROR(balloon_set_progress_callback(NULL, NULL, NULL), BALLOON_NULL_POINTER, "s");
+  CHECK(frozen == 777, "nothing written on failure");
+  balloon_free(NULL);
+  balloon_trimesh_free(NULL);
+}
+
+/* The method driven by hand: steps, a self-intersection search, a re-parametrisation, more
+ * steps, then the whole method to its end. */
+static void test_driven_by_hand(void) {
+  void *buffer = NULL;
+  BalloonVolume v = ball_volume(&BALL, 1, BALLOON_SCALAR_U8, I_FASTEST, &buffer);
+  BalloonParams p = window_params(2);
+  double seed[3];
+  index_to_world(&BALL, seed);
+  BalloonSegmenter *s = NULL;
+  BalloonMesh m;
+  EXPECT_OK(balloon_init(&v, &p, seed, &s));
+  test_handle_errors(s, seed);
+
+  EXPECT_OK(balloon_mesh(s, &m));
+  CHECK(m.point_count > 0 && m.vertex_state != NULL, "the initial sphere");
+  expect_valid_spheres(&m, 1, "initial sphere");
+  uint32_t active = 0;
+  EXPECT_OK(balloon_step(s, 10, &active));
+  EXPECT_OK(balloon_step(s, 2, NULL));
+  EXPECT_OK(balloon_mesh(s, &m));
+  CHECK(active > 0 && active <= m.point_count, "%u active of %zu", active, m.point_count);
+  size_t frozen = 12345;
+  EXPECT_OK(balloon_freeze_self_intersections(s, &frozen));
+  CHECK(frozen == 0, "a growing sphere does not meet itself (%zu frozen)", frozen);
+  EXPECT_OK(balloon_reparametrize(s));
+  EXPECT_OK(balloon_mesh(s, &m));
+  expect_valid_spheres(&m, 1, "re-parametrised");
+  for (size_t i = 0; i < m.point_count; ++i)
+    CHECK(m.vertex_state[i] == BALLOON_VERTEX_MOVING, "vertex %zu moves again", i);
+  EXPECT_OK(balloon_step(s, 400, &active));
+  EXPECT_OK(balloon_mesh(s, &m));
+  size_t at_border = 0;
+  for (size_t i = 0; i < m.point_count; ++i) {
+    CHECK(m.vertex_state[i] <= BALLOON_VERTEX_FROZEN_BY_SELF_INTERSECTION, "state %u",
+          m.vertex_state[i]);
+    at_border += m.vertex_state[i] == BALLOON_VERTEX_FROZEN_AT_BORDER;
+  }
+  CHECK(at_border > m.point_count / 2, "%zu of %zu at the border", at_border, m.point_count);
+  EXPECT_OK(balloon_segment(s));
+  EXPECT_OK(balloon_mesh(s, &m));
+  expect_valid_spheres(&m, 1, "segmented by hand");
+  BalloonStats stats;
+  stats.struct_size = sizeof stats;
+  EXPECT_OK(balloon_stats(s, &stats));
+  CHECK(stats.iterations >= 12 && stats.reparametrizations >= 1, "%u iterations, %u reparam.",
+        stats.iterations, stats.reparametrizations);
+  CHECK(stats.reference_intensity == 200 && stats.tolerance == 100, "the given window");
+  CHECK(stats.seconds_total >= stats.seconds_inflation && stats.seconds_inflation >= 0, "times");
+  balloon_free(s);
+  free(buffer);
+}
+
+typedef struct Progress {
+  int calls, cancel_at;
+  double last_fraction;
+  int bad_phase;
+} Progress;
+
+static int on_progress(double fraction, const char *phase, void *user_data) {
+  Progress *p = (Progress *)user_data;
+  p->calls += 1;
+  p->last_fraction = fraction;
+  p->bad_phase |= phase == NULL || strlen(phase) == 0 || !(fraction >= 0 && fraction <= 1);
+  return p->calls == p->cancel_at;
+}
+
+/* A cancel leaves a usable handle whose mesh is the valid balloon of the last step; the run
+ * then completes without the callback, to the same mesh as an uncancelled run. */
+static void test_cancel(void) {
+  void *buffer = NULL;
+  BalloonVolume v = ball_volume(&BALL, 1, BALLOON_SCALAR_U8, I_FASTEST, &buffer);
+  BalloonParams p = window_params(1);
+  double seed[3];
+  index_to_world(&BALL, seed);
+  BalloonSegmenter *s = NULL;
+  BalloonMesh m;
+  Progress progress = {0, 6, -1.0, 0};
+  EXPECT_OK(balloon_init(&v, &p, seed, &s));
+  EXPECT_OK(balloon_set_progress_callback(s, on_progress, &progress));
+  EXPECT_ERROR(balloon_segment(s), BALLOON_CANCELLED, "cancelled");
+  CHECK(progress.calls == 6 && !progress.bad_phase, "%d calls", progress.calls);
+  EXPECT_OK(balloon_mesh(s, &m));
+  CHECK(m.point_count > 0 && m.vertex_state != NULL, "a mesh after the cancel");
+  expect_valid_spheres(&m, 1, "after the cancel");
+
+  /* A re-parametrisation cancelled before it starts leaves the mesh as it was. */
+  Flat before = flat_copy(&m);
+  Progress at_once = {0, 1, -1.0, 0};
+  EXPECT_OK(balloon_set_progress_callback(s, on_progress, &at_once));
+  EXPECT_ERROR(balloon_reparametrize(s), BALLOON_CANCELLED, "reparametrization");
+  EXPECT_OK(balloon_mesh(s, &m));
+  Flat after = flat_copy(&m);
+  CHECK(flat_equal(&before, &after), "the mesh is unchanged by a cancelled re-parametrisation");
+  flat_free(&before);
+  flat_free(&after);
+
+  EXPECT_OK(balloon_set_progress_callback(s, NULL, NULL));
+  EXPECT_OK(balloon_segment(s));
+  EXPECT_OK(balloon_mesh(s, &m));
+  expect_valid_spheres(&m, 1, "resumed after the cancel");
+  CHECK(progress.calls == 6 && at_once.calls == 1, "the callback was removed");
+  balloon_free(s);
+
+  /* A callback that never cancels sees the run to its end. */
+  Progress all = {0, -1, -1.0, 0};
+  EXPECT_OK(balloon_init(&v, &p, seed, &s));
+  EXPECT_OK(balloon_set_progress_callback(s, on_progress, &all));
+  EXPECT_OK(balloon_segment(s));
+  CHECK(all.calls > 6 && all.last_fraction == 1.0 && !all.bad_phase, "%d calls, last %g",
+        all.calls, all.last_fraction);
+  balloon_free(s);
+  free(buffer);
+}
+
+/* The same voxels in other scalar types and memory layouts give the identical mesh. */
+static void test_types_and_layouts(void) {
+  static const struct {
+    uint32_t type;
+    Layout layout;
+    const char *name;
+  } cases[] = {
+      {BALLOON_SCALAR_I16, K_FASTEST, "int16, k fastest (C order of [i][j][k])"},
+      {BALLOON_SCALAR_I16, I_REVERSED, "int16, negative i stride"},
+      {BALLOON_SCALAR_F32, I_FASTEST, "float32"},
+      {BALLOON_SCALAR_F64, K_FASTEST, "float64, k fastest"},
+  };
+  void *buffer = NULL;
+  BalloonParams p = window_params(2);
+  double seed[3];
+  index_to_world(&BALL, seed);
+  BalloonVolume v = ball_volume(&BALL, 1, BALLOON_SCALAR_I16, I_FASTEST, &buffer);
+  Flat reference = segment_copy(&v, &p, seed);
+  free(buffer);
+  BalloonMesh view = {reference.points, reference.point_count, reference.triangles,
+                      reference.triangle_count, NULL};
+  expect_valid_spheres(&view, 1, "int16 sphere");
+  for (size_t c = 0; c < sizeof cases / sizeof cases[0]; ++c) {
+    v = ball_volume(&BALL, 1, cases[c].type, cases[c].layout, &buffer);
+    Flat f = segment_copy(&v, &p, seed);
+    CHECK(flat_equal(&f, &reference), "%s: %zu points, %zu triangles vs %zu, %zu",
+          cases[c].name, f.point_count, f.triangle_count, reference.point_count,
+          reference.triangle_count);
+    flat_free(&f);
+    free(buffer);
+  }
+  flat_free(&reference);
+}
+
+/* Two balls, one seed each: two spheres. A tiny vertex limit is a leak. */
+static void test_two_seeds_and_leak(void) {
+  const Ball balls[2] = {{6.5, 7.0, 7.0, 4.5}, {17.0, 16.0, 16.5, 4.5}};
+  void *buffer = NULL;
+  BalloonVolume v = ball_volume(balls, 2, BALLOON_SCALAR_U16, I_FASTEST, &buffer);
+  BalloonParams p = window_params(2);
+  double seed0[3], seed1[3];
+  index_to_world(&balls[0], seed0);
+  index_to_world(&balls[1], seed1);
+  BalloonSegmenter *s = NULL;
+  BalloonMesh m;
+  EXPECT_OK(balloon_init(&v, &p, seed0, &s));
+  EXPECT_OK(balloon_add_seed(s, seed1));
+  EXPECT_OK(balloon_segment(s));
+  EXPECT_OK(balloon_mesh(s, &m));
+  expect_valid_spheres(&m, 2, "two seeds");
+  balloon_free(s);
+
+  p.tolerance = 1000.0; /* everything is foreground */
+  p.max_vertices = 64;
+  EXPECT_OK(balloon_init(&v, &p, seed0, &s));
+  EXPECT_ERROR(balloon_segment(s), BALLOON_LEAK, "max_vertices");
+  EXPECT_OK(balloon_mesh(s, &m));
+  CHECK(check_mesh(&m).closed, "the leaked balloon is still a closed mesh");
+  balloon_free(s);
+  free(buffer);
+}
+
+static void test_marching_cubes(void) {
+  void *buffer = NULL;
+  BalloonVolume v = ball_volume(&BALL, 1, BALLOON_SCALAR_F32, I_REVERSED, &buffer);
+  BalloonTriMesh *mesh = NULL;
+  BalloonMesh m;
+  EXPECT_ERROR(balloon_marching_cubes(NULL, 100.0, 1, &mesh), BALLOON_NULL_POINTER, "volume");
+  EXPECT_ERROR(balloon_marching_cubes(&v, 100.0, 1, NULL), BALLOON_NULL_POINTER, "out");
+  EXPECT_ERROR(balloon_marching_cubes(&v, NAN, 1, &mesh), BALLOON_INVALID_ARGUMENT, "level");
+  BalloonVolume bad = v;
+  bad.dims[2] = 0;
+  EXPECT_ERROR(balloon_marching_cubes(&bad, 100.0, 1, &mesh), BALLOON_INVALID_VOLUME, "dims");
+  CHECK(mesh == NULL, "no output on failure");
+  EXPECT_OK(balloon_marching_cubes(&v, 100.0, 2, &mesh));
+  EXPECT_ERROR(balloon_trimesh_view(NULL, &m), BALLOON_NULL_POINTER, "m");
+  EXPECT_ERROR(balloon_trimesh_view(mesh, NULL), BALLOON_NULL_POINTER, "out");
+  EXPECT_OK(balloon_trimesh_view(mesh, &m));
+  CHECK(m.vertex_state == NULL && m.point_count > 100, "%zu points", m.point_count);
+  expect_inward_sphere(&m, "marching cubes");
+  balloon_trimesh_free(mesh);
+  free(buffer);
+}
+
+/* Two triangles crossing each other, and a tetrahedron. */
+static const double CROSS_POINTS[] = {0, 0, 0, 2, 0, 0, 0, 2, 0, 0.5, 0.5, -1, 0.5, 0.5, 1, 1.5, 1.5, 0};
+static const uint32_t CROSS_TRIANGLES[] = {0, 1, 2, 3, 4, 5};
+static const double TET_POINTS[] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+static const uint32_t TET_TRIANGLES[] = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+
+static void test_mesh_check_and_self_intersections(void) {
+  BalloonMeshReport r;
+  memset(&r, 0, sizeof r);
+  r.struct_size = sizeof r;
+  EXPECT_ERROR(balloon_mesh_check(TET_POINTS, 4, TET_TRIANGLES, 4, NULL), BALLOON_NULL_POINTER,
+               "out");
+  EXPECT_ERROR(balloon_mesh_check(NULL, 4, TET_TRIANGLES, 4, &r), BALLOON_NULL_POINTER,
+               "points");
+  EXPECT_ERROR(balloon_mesh_check(TET_POINTS, 4, NULL, 4, &r), BALLOON_NULL_POINTER,
+               "triangles");
+  EXPECT_ERROR(balloon_mesh_check(TET_POINTS, 3, TET_TRIANGLES, 4, &r), BALLOON_INVALID_MESH,
+               "3 points");
+  double nan_points[12];
+  memcpy(nan_points, TET_POINTS, sizeof nan_points);
+  nan_points[7] = NAN;
+  EXPECT_ERROR(balloon_mesh_check(nan_points, 4, TET_TRIANGLES, 4, &r), BALLOON_INVALID_MESH,
+               "finite");
+  r.struct_size = sizeof r + 8;
+  EXPECT_ERROR(balloon_mesh_check(TET_POINTS, 4, TET_TRIANGLES, 4, &r),
+               BALLOON_PARAMS_SIZE_MISMATCH, "BalloonMeshReport");
+  CHECK(r.struct_size == sizeof r + 8 && r.closed == 0, "nothing written on failure");
+  r.struct_size = sizeof r;
+  EXPECT_OK(balloon_mesh_check(TET_POINTS, 4, TET_TRIANGLES, 4, &r));
+  CHECK(r.closed && r.manifold && r.oriented && r.outward && r.genus == 0 &&
+            r.euler_characteristic == 2 && r.components == 1 && r.self_intersecting_pairs == 0,
+        "tetrahedron");
+  CHECK(fabs(r.volume_mm3 - 1.0 / 6.0) < 1e-12, "volume %g", r.volume_mm3);
+  EXPECT_OK(balloon_mesh_check(CROSS_POINTS, 6, CROSS_TRIANGLES, 2, &r));
+  CHECK(!r.closed && r.genus == -1 && r.self_intersecting_pairs == 1, "crossing triangles");
+  EXPECT_OK(balloon_mesh_check(NULL, 0, NULL, 0, &r));
+  CHECK(r.components == 0 && r.genus == -1, "the empty mesh");
+
+  size_t count = 999;
+  uint32_t pairs[4] = {7, 7, 7, 7};
+  EXPECT_ERROR(balloon_self_intersections(CROSS_POINTS, 6, CROSS_TRIANGLES, 2, pairs, 2, NULL),
+               BALLOON_NULL_POINTER, "pair_count_out");
+  EXPECT_ERROR(balloon_self_intersections(CROSS_POINTS, 6, CROSS_TRIANGLES, 2, NULL, 2, &count),
+               BALLOON_NULL_POINTER, "pairs_out");
+  EXPECT_ERROR(balloon_self_intersections(NULL, 6, CROSS_TRIANGLES, 2, pairs, 2, &count),
+               BALLOON_NULL_POINTER, "points");
+  EXPECT_ERROR(balloon_self_intersections(CROSS_POINTS, 6, NULL, 2, pairs, 2, &count),
+               BALLOON_NULL_POINTER, "triangles");
+  EXPECT_ERROR(balloon_self_intersections(CROSS_POINTS, 5, CROSS_TRIANGLES, 2, pairs, 2, &count),
+               BALLOON_INVALID_MESH, "5 points");
+  CHECK(count == 999, "no count on other errors");
+  /* The size-query protocol: the count comes with BUFFER_TOO_SMALL, nothing is copied. */
+  EXPECT_ERROR(balloon_self_intersections(CROSS_POINTS, 6, CROSS_TRIANGLES, 2, NULL, 0, &count),
+               BALLOON_BUFFER_TOO_SMALL, "room for 0");
+  CHECK(count == 1, "%zu pairs", count);
+  EXPECT_OK(balloon_self_intersections(CROSS_POINTS, 6, CROSS_TRIANGLES, 2, pairs, 2, &count));
+  CHECK(count == 1 && pairs[0] == 0 && pairs[1] == 1 && pairs[2] == 7, "pair %u %u", pairs[0],
+        pairs[1]);
+  EXPECT_OK(balloon_self_intersections(TET_POINTS, 4, TET_TRIANGLES, 4, NULL, 0, &count));
+  CHECK(count == 0, "a tetrahedron does not intersect itself");
+}
+
+int main(void) {
+  CHECK(balloon_last_error_message(NULL, 0) == 0, "no message before the first error");
+  test_version_and_status_strings();
+  test_last_error_message();
+  test_params();
+  test_init_errors();
+  test_driven_by_hand();
+  test_cancel();
+  test_types_and_layouts();
+  test_two_seeds_and_leak();
+  test_marching_cubes();
+  test_mesh_check_and_self_intersections();
+  return report("test_c_api");
+}
