@@ -88,11 +88,20 @@ std::string FailureMessage(const char* what, BalloonStatus status)
   return message;
 }
 
+// The library's progress callback. Observers of ProgressEvent run inside it: an exception
+// from one must not unwind into the library, so it cancels the run instead.
 int ReportProgress(double fraction, const char* phase, void* userData)
 {
   auto* self = static_cast<vtkBalloonSegmentation*>(userData);
-  self->SetProgressText(phase);
-  self->UpdateProgress(fraction);
+  try
+  {
+    self->SetProgressText(phase);
+    self->UpdateProgress(fraction);
+  }
+  catch (...)
+  {
+    self->SetAbortExecute(1);
+  }
   return self->GetAbortExecute() ? 1 : 0;
 }
 }
