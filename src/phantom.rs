@@ -107,6 +107,11 @@ impl Shape {
         }
     }
 
+    /// A box (lo, hi) that contains the shape.
+    pub fn bounds(self) -> (DVec3, DVec3) {
+        (-self.half_extent(), self.half_extent())
+    }
+
     /// Half-extent of a box that contains the shape, centred at the origin.
     fn half_extent(self) -> DVec3 {
         match self {
