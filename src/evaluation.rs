@@ -22,6 +22,7 @@ use crate::closest_point::Triangle;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::mesh::TriMesh;
+use crate::phantom::Shape;
 use crate::volume::Volume;
 use crate::winding_number::inside_mask;
 
@@ -83,6 +84,35 @@ pub fn overlap_with_shape(
     let grid = Geometry::with_spacing([step; 3], lo.to_array())?;
     let truth = |index: DVec3| signed_distance(grid.index_to_world(index)) < 0.0;
     count_overlap(mesh, dims, &grid, truth)
+}
+
+/// A segmentation of a phantom scored against its analytic shape.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PhantomScore {
+    /// Dice against the seeded object.
+    pub dice: f64,
+    /// Distances from the mesh to the seeded object's surface.
+    pub distances: Distances,
+    /// The fraction of the unseeded object (touching tubes) inside the mesh; 0 without one.
+    pub unseeded_inside: f64,
+}
+
+/// Scores `mesh` against the seeded object of `shape`, sampling volumes every `step` mm.
+pub fn score_phantom(mesh: &TriMesh, shape: Shape, step: f64) -> Result<PhantomScore> {
+    let seeded = |p| shape.seeded_distance(p);
+    let dice = overlap_with_shape(mesh, seeded, shape.bounds(), step)?.dice();
+    let unseeded_inside = match shape.unseeded_distance(DVec3::ZERO) {
+        Some(_) => {
+            let other = |p| shape.unseeded_distance(p).unwrap_or(f64::INFINITY);
+            overlap_with_shape(mesh, other, shape.bounds(), step)?.covered()
+        }
+        None => 0.0,
+    };
+    Ok(PhantomScore {
+        dice,
+        distances: distances_to_shape(mesh, seeded),
+        unseeded_inside,
+    })
 }
 
 /// Voxels `lo..=hi` (per axis) of a reference grid: the region a comparison is restricted to.

@@ -95,6 +95,12 @@ impl Shape {
         }
     }
 
+    /// Signed distance to the object the seed is not in (the second of the touching tubes), if
+    /// the shape has one.
+    pub fn unseeded_distance(self, p: DVec3) -> Option<f64> {
+        (self == Shape::TouchingTubes).then(|| second_tube(p))
+    }
+
     /// A point deep inside the seeded object (world mm, before the phantom's placement).
     pub fn seed(self) -> DVec3 {
         match self {

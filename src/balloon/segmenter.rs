@@ -38,6 +38,9 @@ const COLLAPSE_BELOW: f64 = 0.6;
 const REMESH_INTERVAL: u32 = 2;
 /// Equilibrium when no vertex moved more than this fraction of the step size.
 const STILL: f64 = 1e-3;
+/// Steps over which the enclosed volume must grow by a voxel for the balloon to count as
+/// growing: a front advancing at a quarter voxel per step sweeps several voxels in that time.
+const STALL_STEPS: u32 = 25;
 
 /// The phase a segmenter is in, as progress callbacks see it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -387,29 +390,51 @@ impl<'v, 'p> Segmenter<'v, 'p> {
 
     /// The whole method to completion: the final mesh (world mm, outward, closed, 2-manifold,
     /// without self-intersections) and the state of each of its vertices.
+    ///
+    /// After each re-parametrisation the new surface is refined by the same deformation until
+    /// it is at equilibrium again (at least `refinement_iterations` steps, at most what is left
+    /// of `max_iterations`): contacts freeze the parts of the front that meet, and the rest of
+    /// the front, frozen with them before the re-parametrisation, must go on growing.
     pub fn segment(&mut self) -> Result<(TriMesh, Vec<VertexState>)> {
         let mut budget = self.params.max_iterations;
-        while budget > 0 {
-            let report = self.one_step(Phase::Inflation)?;
-            budget -= 1;
-            if self.at_equilibrium(&report) {
-                break;
-            }
-        }
+        budget -= self.inflate(Phase::Inflation, budget)?;
         self.freeze_self_intersections()?;
         while self.has_self_intersections()
             && self.stats.reparametrizations < self.params.max_reparametrizations
         {
             self.reparametrize()?;
-            for _ in 0..self.params.refinement_iterations {
-                let report = self.one_step(Phase::Refinement)?;
-                if self.at_equilibrium(&report) {
-                    break;
-                }
-            }
+            let used = self.inflate(
+                Phase::Refinement,
+                budget.max(self.params.refinement_iterations),
+            )?;
+            budget = budget.saturating_sub(used);
             self.freeze_self_intersections()?;
         }
         self.validated()
+    }
+
+    /// Up to `limit` steps, until equilibrium: no vertex moving measurably, or the enclosed
+    /// volume not growing by a voxel over `STALL_STEPS` steps (vertices that only jitter in
+    /// place, between forces that balance, would otherwise keep the balloon going). Returns
+    /// the steps taken.
+    fn inflate(&mut self, phase: Phase, limit: u32) -> Result<u32> {
+        let geometry = *self.volume.geometry();
+        let voxel_volume: f64 = geometry.spacing().iter().product();
+        let mut volume = self.surface.signed_volume();
+        for step in 1..=limit {
+            let report = self.one_step(phase)?;
+            if self.at_equilibrium(&report) {
+                return Ok(step);
+            }
+            if step % STALL_STEPS == 0 {
+                let now = self.surface.signed_volume();
+                if (now - volume).abs() < voxel_volume {
+                    return Ok(step);
+                }
+                volume = now;
+            }
+        }
+        Ok(limit)
     }
 
     /// The current mesh if it meets the guarantees; otherwise one more re-parametrisation

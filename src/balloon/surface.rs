@@ -348,6 +348,17 @@ impl Surface {
         (0..self.triangles.len() as u32).filter_map(|t| self.triangle(t).map(|tri| (t, tri)))
     }
 
+    /// The enclosed volume (mm³), positive for the outward balloon; summed in slot order.
+    pub fn signed_volume(&self) -> f64 {
+        self.triangles()
+            .map(|(_, t)| {
+                let [a, b, c] = t.map(|v| self.positions[v as usize]);
+                a.dot(b.cross(c))
+            })
+            .sum::<f64>()
+            / 6.0
+    }
+
     /// Corner positions of triangle `t`, `None` if it is deleted or out of range.
     pub fn triangle_corners(&self, t: u32) -> Option<[DVec3; 3]> {
         self.triangle(t)
