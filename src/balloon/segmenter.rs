@@ -366,6 +366,13 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     /// Replaces the balloon by the zero isosurface of its signed distance map, without the
     /// self-intersecting triangles (paper, section 3). Every vertex moves again afterwards.
     pub fn reparametrize(&mut self) -> Result<()> {
+        self.replace_by_isosurface()?;
+        self.remesh()
+    }
+
+    /// [`Self::reparametrize`] without the remeshing, whose splits and collapses could make
+    /// new contacts: the marching-cubes surface as it is.
+    fn replace_by_isosurface(&mut self) -> Result<()> {
         let start = Instant::now();
         self.report(0.75, Phase::Reparametrization)?;
         let (mesh, states) = self.mesh();
@@ -374,7 +381,6 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .pool
             .install(|| reparametrize(&mesh, &states, &geometry))?;
         self.surface = Surface::from_mesh(&repaired)?;
-        self.remesh()?;
         self.stats.reparametrizations += 1;
         self.stats
             .seconds
@@ -438,7 +444,8 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     }
 
     /// The current mesh if it meets the guarantees; otherwise one more re-parametrisation
-    /// (without refinement, whose marching-cubes surface has no contacts), checked again.
+    /// (without refinement or remeshing: a marching-cubes surface has no contacts), checked
+    /// again.
     fn validated(&mut self) -> Result<(TriMesh, Vec<VertexState>)> {
         let start = Instant::now();
         self.report(0.95, Phase::Validation)?;
@@ -465,7 +472,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                 )));
             }
             self.freeze_self_intersections()?;
-            self.reparametrize()?;
+            self.replace_by_isosurface()?;
             repaired = true;
         }
     }
