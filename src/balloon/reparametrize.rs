@@ -50,9 +50,13 @@ pub(crate) fn reparametrize(
     let (grid, dims) = covering_grid(mesh, geometry, options.band_voxels + 2.0)?;
     let radius = CLOSING_VOXELS * geometry.spacing().iter().copied().fold(0.0, f64::max);
     let field = signed_distance_values(&surface, mesh, dims, &grid, &options)?;
-    let dilated = without_cavities(isosurface(field, dims, &grid, radius)?);
+    let voxel: f64 = geometry.spacing().iter().product();
+    let dilated = without_cavities(isosurface(field, dims, &grid, radius)?, voxel);
     let field = signed_distance_values(&dilated, &dilated, dims, &grid, &options)?;
-    Ok(without_cavities(isosurface(field, dims, &grid, -radius)?))
+    Ok(without_cavities(
+        isosurface(field, dims, &grid, -radius)?,
+        voxel,
+    ))
 }
 
 /// The surface `field = level` (outward: the field grows outward).
@@ -91,18 +95,20 @@ fn covering_grid(
     Ok((grid, dims))
 }
 
-/// Drops the components that enclose negative volume: cavities, surfaces of voids inside the
-/// balloon that no balloon grown from a seed can have.
-fn without_cavities(mesh: TriMesh) -> TriMesh {
+/// Drops the components that enclose negative volume — cavities, surfaces of voids inside the
+/// balloon that no balloon grown from a seed can have — and those that enclose less than
+/// `min_volume`: specks that marching cubes leaves where the field barely dips below the level
+/// at a lone grid point, smaller than any seed sphere.
+fn without_cavities(mesh: TriMesh, min_volume: f64) -> TriMesh {
     let (labels, volume) = mesh_checks::component_volumes(&mesh);
-    if volume.iter().all(|&v| v > 0.0) {
+    if volume.iter().all(|&v| v >= min_volume) {
         return mesh;
     }
     let (points, triangles) = mesh.into_parts();
     let kept: Vec<[u32; 3]> = triangles
         .into_iter()
         .zip(&labels)
-        .filter(|(_, &l)| volume[l as usize] > 0.0)
+        .filter(|(_, &l)| volume[l as usize] >= min_volume)
         .map(|(t, _)| t)
         .collect();
     compacted(points, kept)

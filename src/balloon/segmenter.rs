@@ -41,6 +41,9 @@ const STILL: f64 = 1e-3;
 /// Steps over which the enclosed volume must grow by a voxel for the balloon to count as
 /// growing: a front advancing at a quarter voxel per step sweeps several voxels in that time.
 const STALL_STEPS: u32 = 25;
+/// Cell size, in target edge lengths, of the grid that finds the triangles near the moving
+/// front for the self-intersection search: about the size of a triangle's box.
+const SEARCH_CELLS: f64 = 2.0;
 
 /// The phase a segmenter is in, as progress callbacks see it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -341,9 +344,18 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .iter()
             .map(|t| t.iter().any(|&v| states[v as usize] == VertexState::Moving))
             .collect();
-        let pairs = self
+        let near = near_active(&mesh, &active, SEARCH_CELLS * self.edge_length);
+        let local = TriMesh::new(
+            mesh.points().to_vec(),
+            near.iter().map(|&t| mesh.triangles()[t as usize]).collect(),
+        )?;
+        let local_active: Vec<bool> = near.iter().map(|&t| active[t as usize]).collect();
+        let pairs: Vec<(u32, u32)> = self
             .pool
-            .install(|| self_intersections_among(&mesh, &active))?;
+            .install(|| self_intersections_among(&local, &local_active))?
+            .into_iter()
+            .map(|(a, b)| (near[a as usize], near[b as usize]))
+            .collect();
         let mut frozen = 0;
         let states = self.surface.states_mut();
         for (a, b) in pairs {
@@ -476,6 +488,34 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             repaired = true;
         }
     }
+}
+
+/// The triangles (ids, ascending) whose bounding boxes reach a grid cell of size `cell` that
+/// the box of an active triangle reaches: every triangle an active one can intersect, since
+/// two intersecting triangles' boxes overlap in some cell both reach. The search for contacts
+/// then costs in proportion to the moving front, not to the whole balloon.
+fn near_active(mesh: &TriMesh, active: &[bool], cell: f64) -> Vec<u32> {
+    let cells = |t: usize| {
+        let [a, b, c] = mesh.corners(t);
+        let lo = (a.min(b).min(c) / cell).floor().as_i64vec3();
+        let hi = (a.max(b).max(c) / cell).floor().as_i64vec3();
+        (lo.z..=hi.z).flat_map(move |z| {
+            (lo.y..=hi.y).flat_map(move |y| (lo.x..=hi.x).map(move |x| [x, y, z]))
+        })
+    };
+    let mut marked: Vec<[i64; 3]> = (0..active.len())
+        .filter(|&t| active[t])
+        .flat_map(cells)
+        .collect();
+    if marked.is_empty() {
+        return Vec::new();
+    }
+    marked.sort_unstable();
+    marked.dedup();
+    (0..active.len())
+        .filter(|&t| active[t] || cells(t).any(|c| marked.binary_search(&c).is_ok()))
+        .map(|t| t as u32)
+        .collect()
 }
 
 #[cfg(test)]
