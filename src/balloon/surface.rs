@@ -402,9 +402,22 @@ impl Surface {
 
     /// [`Surface::vertex_normals`] into a reused buffer.
     pub fn vertex_normals_into(&self, normals: &mut Vec<DVec3>) {
+        self.normals_into(normals, false);
+    }
+
+    /// [`Surface::vertex_normals`] of the moving vertices, into a reused buffer; frozen
+    /// vertices whose triangles are all frozen get zero, so the work follows the moving front.
+    pub fn moving_vertex_normals_into(&self, normals: &mut Vec<DVec3>) {
+        self.normals_into(normals, true);
+    }
+
+    fn normals_into(&self, normals: &mut Vec<DVec3>, only_moving: bool) {
         normals.clear();
         normals.resize(self.positions.len(), DVec3::ZERO);
         for (_, tri) in self.triangles() {
+            if only_moving && tri.iter().all(|&v| self.states[v as usize].is_frozen()) {
+                continue;
+            }
             let [a, b, c] = tri.map(|v| self.positions[v as usize]);
             let n = (b - a).cross(c - a);
             for v in tri {
