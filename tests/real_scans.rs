@@ -175,56 +175,76 @@ fn point_triangle_distance(p: DVec3, [a, b, c]: [DVec3; 3]) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// The balloon on the aorta from the README's seed, with the defaults.
-fn aorta_balloon() -> Option<(
-    Image,
-    balloonseg::TriMesh,
-    balloonseg::balloon::SegmentationStats,
-)> {
+/// The balloon on the aorta from the README's seed, with the defaults, scored against vmtk's
+/// reference inside its rows y = 89…176 (all x, all z); computed once for the tests below.
+struct AortaScore {
+    mesh: balloonseg::TriMesh,
+    dice: f64,
+    mean_distance: f64,
+    hd95: f64,
+}
+
+fn aorta_score() -> Option<&'static AortaScore> {
+    use std::sync::OnceLock;
+    static SCORE: OnceLock<AortaScore> = OnceLock::new();
     let dir = data_dir()?;
-    let image = io::read_image(&dir.join("vmtk-aorta/aorta.mha")).unwrap();
-    let seed = DVec3::new(-221.484, -156.445, 22.501);
-    let mut segmenter = Segmenter::new(image.view(), BalloonParams::default(), seed).unwrap();
-    let (mesh, _) = segmenter.segment().unwrap();
-    let stats = segmenter.stats().clone();
-    Some((image, mesh, stats))
+    Some(SCORE.get_or_init(|| {
+        let image = io::read_image(&dir.join("vmtk-aorta/aorta.mha")).unwrap();
+        let seed = DVec3::new(-221.484, -156.445, 22.501);
+        let mut segmenter = Segmenter::new(image.view(), BalloonParams::default(), seed).unwrap();
+        let (mesh, _) = segmenter.segment().unwrap();
+        let level_set = aorta_level_set().unwrap();
+        let region = IndexBox {
+            lo: [0, 89, 0],
+            hi: [level_set.dims()[0] - 1, 176, level_set.dims()[2] - 1],
+        };
+        let overlap = overlap_with_level_set(&mesh, &level_set.view(), region, 3).unwrap();
+        let reference = marching_cubes(&level_set.view(), 0.0).unwrap();
+        let geometry = *level_set.geometry();
+        let distances = symmetric_distances(&mesh, &reference, |p| {
+            region.contains(geometry.world_to_index(p))
+        })
+        .unwrap();
+        eprintln!(
+            "aorta: Dice {:.4} (volumes mesh {:.0}, reference {:.0} mm³), MSSD {:.3} mm, HD95 \
+             {:.3} mm, {:?}",
+            overlap.dice(),
+            overlap.mesh,
+            overlap.truth,
+            distances.mean(),
+            distances.hd95(),
+            segmenter.stats()
+        );
+        AortaScore {
+            mesh,
+            dice: overlap.dice(),
+            mean_distance: distances.mean(),
+            hd95: distances.hd95(),
+        }
+    }))
 }
 
 #[test]
-#[ignore = "genus 1 instead of 0, Dice 0.967, MSSD 0.23 mm: see BENCHMARKS.md, Balloon"]
-fn aorta_balloon_matches_vmtks_reference_in_its_rows() {
-    let Some((_, mesh, stats)) = aorta_balloon() else {
+fn aorta_balloon_is_one_valid_genus_zero_surface_near_vmtks() {
+    let Some(score) = aorta_score() else {
         return;
     };
-    let level_set = aorta_level_set().unwrap();
-    let report = mesh_checks::check(&mesh);
-    let region = IndexBox {
-        lo: [0, 89, 0],
-        hi: [level_set.dims()[0] - 1, 176, level_set.dims()[2] - 1],
-    };
-    let overlap = overlap_with_level_set(&mesh, &level_set.view(), region, 3).unwrap();
-    let reference = marching_cubes(&level_set.view(), 0.0).unwrap();
-    let geometry = *level_set.geometry();
-    let distances = symmetric_distances(&mesh, &reference, |p| {
-        region.contains(geometry.world_to_index(p))
-    })
-    .unwrap();
-    eprintln!(
-        "aorta: Dice {:.4} (volumes mesh {:.0}, reference {:.0} mm³), MSSD {:.3} mm, HD95 {:.3} mm, \
-         {report:?}, {stats:?}",
-        overlap.dice(),
-        overlap.mesh,
-        overlap.truth,
-        distances.mean(),
-        distances.hd95()
-    );
+    let report = mesh_checks::check(&score.mesh);
     assert!(report.is_valid_closed_surface(), "{report:?}");
-    assert!(self_intersections(&mesh).is_empty());
-    assert_eq!(report.components, 1);
+    assert!(self_intersections(&score.mesh).is_empty());
+    assert_eq!(report.components, 1, "{report:?}");
     assert_eq!(report.genus(), Some(0), "{report:?}");
-    assert!(overlap.dice() >= 0.97, "Dice {}", overlap.dice());
-    assert!(distances.mean() <= 0.15, "{distances:?}");
-    assert!(distances.hd95() <= 0.9, "{distances:?}");
+    assert!(score.hd95 <= 0.9, "HD95 {}", score.hd95);
+}
+
+#[test]
+#[ignore = "Dice 0.967 and MSSD 0.22 mm: the balloon sits about 0.15 mm outside vmtk's surface; see BENCHMARKS.md, Balloon"]
+fn aorta_balloon_overlaps_vmtks_reference() {
+    let Some(score) = aorta_score() else {
+        return;
+    };
+    assert!(score.dice >= 0.97, "Dice {}", score.dice);
+    assert!(score.mean_distance <= 0.15, "MSSD {}", score.mean_distance);
 }
 
 #[test]

@@ -357,6 +357,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .map(|(a, b)| (near[a as usize], near[b as usize]))
             .collect();
         let mut frozen = 0;
+        let mut front = Vec::new();
         let states = self.surface.states_mut();
         for (a, b) in pairs {
             for t in [a, b] {
@@ -365,14 +366,40 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                     if *state != VertexState::FrozenBySelfIntersection {
                         *state = VertexState::FrozenBySelfIntersection;
                         frozen += 1;
+                        front.push(v);
                     }
                 }
             }
         }
+        frozen += self.freeze_fronts(front);
         self.stats
             .seconds
             .add(Phase::SelfIntersection, start.elapsed().as_secs_f64());
         Ok(frozen)
+    }
+
+    /// Freezes every moving vertex connected through moving vertices to `seeds` — the rest of
+    /// a front that met the balloon — as if at the border, so its triangles still shape the
+    /// distance map. Left moving, the part of the front that passed the contact would go on
+    /// inflating inside the balloon's own interior, along the whole structure (on the aorta,
+    /// doubling the balloon's volume in overlapping lobes and making contacts all along).
+    /// Re-parametrisation merges the lobes, and refinement lets the whole front move again.
+    /// Returns how many vertices it froze.
+    fn freeze_fronts(&mut self, mut seeds: Vec<u32>) -> usize {
+        let mut frozen = 0;
+        while let Some(v) = seeds.pop() {
+            let moving: Vec<u32> = self
+                .surface
+                .neighbours(v)
+                .filter(|&n| self.surface.states()[n as usize] == VertexState::Moving)
+                .collect();
+            for n in moving {
+                self.surface.states_mut()[n as usize] = VertexState::FrozenAtBorder;
+                frozen += 1;
+                seeds.push(n);
+            }
+        }
+        frozen
     }
 
     /// Replaces the balloon by the zero isosurface of its signed distance map, without the
