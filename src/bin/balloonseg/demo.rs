@@ -26,7 +26,7 @@ pub struct Args {
 }
 
 /// The demo's phantoms: noisy, anisotropic and oblique, as the tests use them.
-pub fn options() -> PhantomOptions {
+fn options() -> PhantomOptions {
     PhantomOptions {
         spacing: [0.8, 0.8, 1.5],
         direction: phantom::oblique_direction(),
