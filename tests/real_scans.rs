@@ -225,7 +225,7 @@ fn aorta_score() -> Option<&'static AortaScore> {
 }
 
 #[test]
-fn aorta_balloon_is_one_valid_genus_zero_surface_near_vmtks() {
+fn aorta_balloon_is_one_valid_genus_zero_surface_overlapping_vmtks() {
     let Some(score) = aorta_score() else {
         return;
     };
@@ -234,16 +234,16 @@ fn aorta_balloon_is_one_valid_genus_zero_surface_near_vmtks() {
     assert!(self_intersections(&score.mesh).is_empty());
     assert_eq!(report.components, 1, "{report:?}");
     assert_eq!(report.genus(), Some(0), "{report:?}");
+    assert!(score.dice >= 0.97, "Dice {}", score.dice);
     assert!(score.hd95 <= 0.9, "HD95 {}", score.hd95);
 }
 
 #[test]
-#[ignore = "Dice 0.967 and MSSD 0.22 mm: the balloon sits about 0.15 mm outside vmtk's surface; see BENCHMARKS.md, Balloon"]
-fn aorta_balloon_overlaps_vmtks_reference() {
+#[ignore = "MSSD 0.195 mm: the balloon sits about 0.1 mm outside vmtk's surface; see BENCHMARKS.md, Balloon"]
+fn aorta_balloon_surface_distance_to_vmtks_reference() {
     let Some(score) = aorta_score() else {
         return;
     };
-    assert!(score.dice >= 0.97, "Dice {}", score.dice);
     assert!(score.mean_distance <= 0.15, "MSSD {}", score.mean_distance);
 }
 

@@ -24,7 +24,7 @@ use crate::volume::VoxelBuffer;
 /// surface. Tunnels narrower than the ball's diameter, which contacts across a pit of noise or a
 /// dark speck in the wall leave behind as handles, are filled; loops around anything wider (a
 /// torus's hole, the circle of Willis) are kept, and convex parts of the surface do not move.
-const CLOSING_VOXELS: f64 = 1.0;
+const CLOSING_VOXELS: f64 = 1.5;
 
 /// Exact voxel values of the level would put marching-cubes vertices on grid points and make
 /// degenerate triangles; they are moved this far (in mm) outward instead.
