@@ -9,6 +9,7 @@
 pub mod balloon;
 pub mod closest_point;
 pub mod error;
+pub mod evaluation;
 pub mod ffi;
 pub mod geometry;
 #[cfg(feature = "io")]

@@ -95,6 +95,12 @@ impl Shape {
         }
     }
 
+    /// Signed distance to the object the seed is not in (the second of the touching tubes), if
+    /// the shape has one.
+    pub fn unseeded_distance(self, p: DVec3) -> Option<f64> {
+        (self == Shape::TouchingTubes).then(|| second_tube(p))
+    }
+
     /// A point deep inside the seeded object (world mm, before the phantom's placement).
     pub fn seed(self) -> DVec3 {
         match self {
@@ -105,6 +111,11 @@ impl Shape {
             Shape::YVessel => DVec3::new(0.0, 0.0, -10.0),
             Shape::TouchingTubes => -TUBE_OFFSET,
         }
+    }
+
+    /// A box (lo, hi) that contains the shape.
+    pub fn bounds(self) -> (DVec3, DVec3) {
+        (-self.half_extent(), self.half_extent())
     }
 
     /// Half-extent of a box that contains the shape, centred at the origin.

@@ -68,8 +68,9 @@ impl IntensityWindow {
     }
 }
 
-/// Elastic (tangential umbrella) plus bending forces of every vertex slot, in units of the
-/// edge length `scale`. `normals` are the unit vertex normals by slot.
+/// Elastic (tangential umbrella) plus bending forces of every moving vertex, by slot, in units
+/// of the edge length `scale` (frozen vertices get meaningless values). `normals` are the unit
+/// vertex normals by slot.
 pub fn internal_forces(
     surface: &Surface,
     normals: &[DVec3],
@@ -79,11 +80,17 @@ pub fn internal_forces(
 ) {
     let slots = surface.vertex_slots();
     let positions = surface.positions();
+    let states = surface.states();
     let mut neighbour_sum = vec![DVec3::ZERO; slots];
     let mut valence = vec![0u32; slots];
     let mut bending = vec![DVec3::ZERO; slots];
     for e in surface.edges() {
         let [a, b, c, d] = [e.a, e.b, e.c, e.d].map(|v| v as usize);
+        // Only moving vertices use their forces: an edge among frozen vertices is skipped, so
+        // the work follows the moving front rather than the whole balloon.
+        if [a, b, c, d].iter().all(|&v| states[v].is_frozen()) {
+            continue;
+        }
         neighbour_sum[a] += positions[b];
         neighbour_sum[b] += positions[a];
         valence[a] += 1;

@@ -50,7 +50,7 @@ const BISECTIONS: u32 = 16;
 impl Stepper<'_, '_> {
     /// Moves every moving vertex once.
     pub fn step(&self, surface: &mut Surface, scratch: &mut Scratch) -> StepReport {
-        surface.vertex_normals_into(&mut scratch.normals);
+        surface.moving_vertex_normals_into(&mut scratch.normals);
         internal_forces(
             surface,
             &scratch.normals,

@@ -19,7 +19,14 @@ use crate::mesh_checks;
 use crate::signed_distance::{signed_distance_values, SignedDistanceOptions};
 use crate::volume::VoxelBuffer;
 
-/// Exact voxel values of zero would put marching-cubes vertices on grid points and make
+/// The new surface is closed morphologically with a ball of this many voxels (of the largest
+/// spacing): dilated to the distance's level +r, then eroded back by the distance to that
+/// surface. Tunnels narrower than the ball's diameter, which contacts across a pit of noise or a
+/// dark speck in the wall leave behind as handles, are filled; loops around anything wider (a
+/// torus's hole, the circle of Willis) are kept, and convex parts of the surface do not move.
+const CLOSING_VOXELS: f64 = 1.5;
+
+/// Exact voxel values of the level would put marching-cubes vertices on grid points and make
 /// degenerate triangles; they are moved this far (in mm) outward instead.
 const ZERO_NUDGE: f64 = 1e-9;
 
@@ -41,13 +48,25 @@ pub(crate) fn reparametrize(
     let surface = TriMesh::new(mesh.points().to_vec(), kept)?;
     let options = SignedDistanceOptions::default();
     let (grid, dims) = covering_grid(mesh, geometry, options.band_voxels + 2.0)?;
-    let nudged: Vec<f64> = signed_distance_values(&surface, mesh, dims, &grid, &options)?
+    let radius = CLOSING_VOXELS * geometry.spacing().iter().copied().fold(0.0, f64::max);
+    let field = signed_distance_values(&surface, mesh, dims, &grid, &options)?;
+    let voxel: f64 = geometry.spacing().iter().product();
+    let dilated = without_cavities(isosurface(field, dims, &grid, radius)?, voxel);
+    let field = signed_distance_values(&dilated, &dilated, dims, &grid, &options)?;
+    Ok(without_cavities(
+        isosurface(field, dims, &grid, -radius)?,
+        voxel,
+    ))
+}
+
+/// The surface `field = level` (outward: the field grows outward).
+fn isosurface(field: Vec<f64>, dims: [usize; 3], grid: &Geometry, level: f64) -> Result<TriMesh> {
+    let nudged: Vec<f64> = field
         .into_iter()
-        .map(|v| if v == 0.0 { ZERO_NUDGE } else { v })
+        .map(|v| if v == level { v + ZERO_NUDGE } else { v })
         .collect();
-    let map = crate::volume::Image::new(VoxelBuffer::F64(nudged), dims, grid)?;
-    let isosurface = marching_cubes(&map.view(), 0.0)?;
-    Ok(without_cavities(isosurface))
+    let map = crate::volume::Image::new(VoxelBuffer::F64(nudged), dims, *grid)?;
+    marching_cubes(&map.view(), level)
 }
 
 /// The sub-grid of `geometry` (same spacing and direction, origin on a grid point) that covers
@@ -76,18 +95,20 @@ fn covering_grid(
     Ok((grid, dims))
 }
 
-/// Drops the components that enclose negative volume: cavities, surfaces of voids inside the
-/// balloon that no balloon grown from a seed can have.
-fn without_cavities(mesh: TriMesh) -> TriMesh {
+/// Drops the components that enclose negative volume — cavities, surfaces of voids inside the
+/// balloon that no balloon grown from a seed can have — and those that enclose less than
+/// `min_volume`: specks that marching cubes leaves where the field barely dips below the level
+/// at a lone grid point, smaller than any seed sphere.
+fn without_cavities(mesh: TriMesh, min_volume: f64) -> TriMesh {
     let (labels, volume) = mesh_checks::component_volumes(&mesh);
-    if volume.iter().all(|&v| v > 0.0) {
+    if volume.iter().all(|&v| v >= min_volume) {
         return mesh;
     }
     let (points, triangles) = mesh.into_parts();
     let kept: Vec<[u32; 3]> = triangles
         .into_iter()
         .zip(&labels)
-        .filter(|(_, &l)| volume[l as usize] > 0.0)
+        .filter(|(_, &l)| volume[l as usize] >= min_volume)
         .map(|(t, _)| t)
         .collect();
     compacted(points, kept)
@@ -147,8 +168,10 @@ mod tests {
         let h: f64 = 3.0 - 2.0;
         let cap = std::f64::consts::PI * h * h * (3.0 * 3.0 - h) / 3.0;
         let union = 2.0 * (4.0 / 3.0 * std::f64::consts::PI * 27.0) - 2.0 * cap;
+        // The icosphere's facets, then the closing's two marching-cubes surfaces, each lie a
+        // sagitta inside the curved surface (refinement moves it back to the border).
         assert!(
-            (report.signed_volume - union).abs() / union < 0.03,
+            (report.signed_volume - union).abs() / union < 0.06,
             "{}",
             report.signed_volume
         );
@@ -168,6 +191,20 @@ mod tests {
         let report = mesh_checks::check(&again);
         assert!(report.is_valid_closed_surface(), "{report:?}");
         let before = mesh.signed_volume();
-        assert!((report.signed_volume - before).abs() / before < 0.02);
+        let change = (report.signed_volume - before) / before;
+        assert!(change.abs() < 0.04, "{change}");
+    }
+
+    #[test]
+    fn tunnels_narrower_than_a_voxel_close_and_wider_holes_stay() {
+        use crate::mesh::test_shapes::torus;
+        let g = Geometry::with_spacing([0.5, 0.5, 0.5], [0.0; 3]).unwrap();
+        let genus = |mesh: &TriMesh| {
+            let states = vec![VertexState::FrozenAtBorder; mesh.points().len()];
+            mesh_checks::check(&reparametrize(mesh, &states, &g).unwrap()).genus()
+        };
+        // Hole of radius 0.3 mm, a 0.6 mm tunnel on a 0.5 mm grid: closed.
+        assert_eq!(genus(&torus(DVec3::ZERO, 1.8, 1.5, 48, 32)), Some(0));
+        assert_eq!(genus(&torus(DVec3::ZERO, 4.0, 1.5, 48, 32)), Some(1));
     }
 }

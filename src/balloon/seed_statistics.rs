@@ -6,8 +6,10 @@
 //!   in world space, sampled every half of the smallest spacing. A ray *exits* the structure at
 //!   the first of two consecutive samples further than `max(3 · 1.4826 · MAD, 1% of |reference|)`
 //!   from the reference. The edge is where the profile is steepest (central differences over
-//!   one voxel, by the largest spacing) between one voxel before and three after the exit, and
-//!   the surroundings' intensity on that ray is the sample 2 voxels beyond the edge. Rays that
+//!   one voxel) between one voxel before and three after the exit, and the surroundings'
+//!   intensity on that ray is the sample 2 voxels beyond the edge — voxels measured along the
+//!   ray (a voxel's extent in that direction), so that on an anisotropic grid the in-plane
+//!   rays look at the tissue next to the structure, not 2 of the largest spacings away. Rays that
 //!   reach the volume's edge or 80 mm without exiting are ignored; at least 8 must exit.
 //! - **Tolerance**: half of |reference − median surroundings|, which puts the balloon's border
 //!   half-way between the structure and what surrounds it — where the partial-volume edge of
@@ -57,11 +59,14 @@ pub fn estimate(volume: &Volume<'_>, seed: DVec3) -> Result<SeedStatistics> {
         .max(0.01 * reference.abs())
         .max(f64::EPSILON);
     let step = 0.5 * geometry.min_spacing();
-    let voxel = geometry.spacing().iter().copied().fold(0.0, f64::max);
+    let to_index = geometry.world_to_index_matrix();
 
     let mut outside: Vec<f64> = ray_directions()
         .into_iter()
         .filter_map(|direction| {
+            // A voxel's length along this ray (mm): anisotropic grids are finer along some
+            // rays than along others, and the edge is as sharp as the grid along the ray.
+            let voxel = 1.0 / (to_index * direction).length();
             let sample = |t: f64| volume.sample_world(seed + direction * t);
             let far = |v: f64| (v - reference).abs() > threshold;
             let mut t = step;

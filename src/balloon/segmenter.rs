@@ -38,6 +38,12 @@ const COLLAPSE_BELOW: f64 = 0.6;
 const REMESH_INTERVAL: u32 = 2;
 /// Equilibrium when no vertex moved more than this fraction of the step size.
 const STILL: f64 = 1e-3;
+/// Steps over which the enclosed volume must grow by a voxel for the balloon to count as
+/// growing: a front advancing at a quarter voxel per step sweeps several voxels in that time.
+const STALL_STEPS: u32 = 25;
+/// Cell size, in target edge lengths, of the grid that finds the triangles near the moving
+/// front for the self-intersection search: about the size of a triangle's box.
+const SEARCH_CELLS: f64 = 2.0;
 
 /// The phase a segmenter is in, as progress callbacks see it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -338,10 +344,20 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .iter()
             .map(|t| t.iter().any(|&v| states[v as usize] == VertexState::Moving))
             .collect();
-        let pairs = self
+        let near = near_active(&mesh, &active, SEARCH_CELLS * self.edge_length);
+        let local = TriMesh::new(
+            mesh.points().to_vec(),
+            near.iter().map(|&t| mesh.triangles()[t as usize]).collect(),
+        )?;
+        let local_active: Vec<bool> = near.iter().map(|&t| active[t as usize]).collect();
+        let pairs: Vec<(u32, u32)> = self
             .pool
-            .install(|| self_intersections_among(&mesh, &active))?;
+            .install(|| self_intersections_among(&local, &local_active))?
+            .into_iter()
+            .map(|(a, b)| (near[a as usize], near[b as usize]))
+            .collect();
         let mut frozen = 0;
+        let mut front = Vec::new();
         let states = self.surface.states_mut();
         for (a, b) in pairs {
             for t in [a, b] {
@@ -350,19 +366,52 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                     if *state != VertexState::FrozenBySelfIntersection {
                         *state = VertexState::FrozenBySelfIntersection;
                         frozen += 1;
+                        front.push(v);
                     }
                 }
             }
         }
+        frozen += self.freeze_fronts(front);
         self.stats
             .seconds
             .add(Phase::SelfIntersection, start.elapsed().as_secs_f64());
         Ok(frozen)
     }
 
+    /// Freezes every moving vertex connected through moving vertices to `seeds` — the rest of
+    /// a front that met the balloon — as if at the border, so its triangles still shape the
+    /// distance map. Left moving, the part of the front that passed the contact would go on
+    /// inflating inside the balloon's own interior, along the whole structure (on the aorta,
+    /// doubling the balloon's volume in overlapping lobes and making contacts all along).
+    /// Re-parametrisation merges the lobes, and refinement lets the whole front move again.
+    /// Returns how many vertices it froze.
+    fn freeze_fronts(&mut self, mut seeds: Vec<u32>) -> usize {
+        let mut frozen = 0;
+        while let Some(v) = seeds.pop() {
+            let moving: Vec<u32> = self
+                .surface
+                .neighbours(v)
+                .filter(|&n| self.surface.states()[n as usize] == VertexState::Moving)
+                .collect();
+            for n in moving {
+                self.surface.states_mut()[n as usize] = VertexState::FrozenAtBorder;
+                frozen += 1;
+                seeds.push(n);
+            }
+        }
+        frozen
+    }
+
     /// Replaces the balloon by the zero isosurface of its signed distance map, without the
     /// self-intersecting triangles (paper, section 3). Every vertex moves again afterwards.
     pub fn reparametrize(&mut self) -> Result<()> {
+        self.replace_by_isosurface()?;
+        self.remesh()
+    }
+
+    /// [`Self::reparametrize`] without the remeshing, whose splits and collapses could make
+    /// new contacts: the marching-cubes surface as it is.
+    fn replace_by_isosurface(&mut self) -> Result<()> {
         let start = Instant::now();
         self.report(0.75, Phase::Reparametrization)?;
         let (mesh, states) = self.mesh();
@@ -371,7 +420,6 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .pool
             .install(|| reparametrize(&mesh, &states, &geometry))?;
         self.surface = Surface::from_mesh(&repaired)?;
-        self.remesh()?;
         self.stats.reparametrizations += 1;
         self.stats
             .seconds
@@ -387,33 +435,56 @@ impl<'v, 'p> Segmenter<'v, 'p> {
 
     /// The whole method to completion: the final mesh (world mm, outward, closed, 2-manifold,
     /// without self-intersections) and the state of each of its vertices.
+    ///
+    /// After each re-parametrisation the new surface is refined by the same deformation until
+    /// it is at equilibrium again (at least `refinement_iterations` steps, at most what is left
+    /// of `max_iterations`): contacts freeze the parts of the front that meet, and the rest of
+    /// the front, frozen with them before the re-parametrisation, must go on growing.
     pub fn segment(&mut self) -> Result<(TriMesh, Vec<VertexState>)> {
         let mut budget = self.params.max_iterations;
-        while budget > 0 {
-            let report = self.one_step(Phase::Inflation)?;
-            budget -= 1;
-            if self.at_equilibrium(&report) {
-                break;
-            }
-        }
+        budget -= self.inflate(Phase::Inflation, budget)?;
         self.freeze_self_intersections()?;
         while self.has_self_intersections()
             && self.stats.reparametrizations < self.params.max_reparametrizations
         {
             self.reparametrize()?;
-            for _ in 0..self.params.refinement_iterations {
-                let report = self.one_step(Phase::Refinement)?;
-                if self.at_equilibrium(&report) {
-                    break;
-                }
-            }
+            let used = self.inflate(
+                Phase::Refinement,
+                budget.max(self.params.refinement_iterations),
+            )?;
+            budget = budget.saturating_sub(used);
             self.freeze_self_intersections()?;
         }
         self.validated()
     }
 
+    /// Up to `limit` steps, until equilibrium: no vertex moving measurably, or the enclosed
+    /// volume not growing by a voxel over `STALL_STEPS` steps (vertices that only jitter in
+    /// place, between forces that balance, would otherwise keep the balloon going). Returns
+    /// the steps taken.
+    fn inflate(&mut self, phase: Phase, limit: u32) -> Result<u32> {
+        let geometry = *self.volume.geometry();
+        let voxel_volume: f64 = geometry.spacing().iter().product();
+        let mut volume = self.surface.signed_volume();
+        for step in 1..=limit {
+            let report = self.one_step(phase)?;
+            if self.at_equilibrium(&report) {
+                return Ok(step);
+            }
+            if step % STALL_STEPS == 0 {
+                let now = self.surface.signed_volume();
+                if (now - volume).abs() < voxel_volume {
+                    return Ok(step);
+                }
+                volume = now;
+            }
+        }
+        Ok(limit)
+    }
+
     /// The current mesh if it meets the guarantees; otherwise one more re-parametrisation
-    /// (without refinement, whose marching-cubes surface has no contacts), checked again.
+    /// (without refinement or remeshing: a marching-cubes surface has no contacts), checked
+    /// again.
     fn validated(&mut self) -> Result<(TriMesh, Vec<VertexState>)> {
         let start = Instant::now();
         self.report(0.95, Phase::Validation)?;
@@ -440,10 +511,38 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                 )));
             }
             self.freeze_self_intersections()?;
-            self.reparametrize()?;
+            self.replace_by_isosurface()?;
             repaired = true;
         }
     }
+}
+
+/// The triangles (ids, ascending) whose bounding boxes reach a grid cell of size `cell` that
+/// the box of an active triangle reaches: every triangle an active one can intersect, since
+/// two intersecting triangles' boxes overlap in some cell both reach. The search for contacts
+/// then costs in proportion to the moving front, not to the whole balloon.
+fn near_active(mesh: &TriMesh, active: &[bool], cell: f64) -> Vec<u32> {
+    let cells = |t: usize| {
+        let [a, b, c] = mesh.corners(t);
+        let lo = (a.min(b).min(c) / cell).floor().as_i64vec3();
+        let hi = (a.max(b).max(c) / cell).floor().as_i64vec3();
+        (lo.z..=hi.z).flat_map(move |z| {
+            (lo.y..=hi.y).flat_map(move |y| (lo.x..=hi.x).map(move |x| [x, y, z]))
+        })
+    };
+    let mut marked: Vec<[i64; 3]> = (0..active.len())
+        .filter(|&t| active[t])
+        .flat_map(cells)
+        .collect();
+    if marked.is_empty() {
+        return Vec::new();
+    }
+    marked.sort_unstable();
+    marked.dedup();
+    (0..active.len())
+        .filter(|&t| active[t] || cells(t).any(|c| marked.binary_search(&c).is_ok()))
+        .map(|t| t as u32)
+        .collect()
 }
 
 #[cfg(test)]

@@ -348,6 +348,17 @@ impl Surface {
         (0..self.triangles.len() as u32).filter_map(|t| self.triangle(t).map(|tri| (t, tri)))
     }
 
+    /// The enclosed volume (mm³), positive for the outward balloon; summed in slot order.
+    pub fn signed_volume(&self) -> f64 {
+        self.triangles()
+            .map(|(_, t)| {
+                let [a, b, c] = t.map(|v| self.positions[v as usize]);
+                a.dot(b.cross(c))
+            })
+            .sum::<f64>()
+            / 6.0
+    }
+
     /// Corner positions of triangle `t`, `None` if it is deleted or out of range.
     pub fn triangle_corners(&self, t: u32) -> Option<[DVec3; 3]> {
         self.triangle(t)
@@ -391,9 +402,22 @@ impl Surface {
 
     /// [`Surface::vertex_normals`] into a reused buffer.
     pub fn vertex_normals_into(&self, normals: &mut Vec<DVec3>) {
+        self.normals_into(normals, false);
+    }
+
+    /// [`Surface::vertex_normals`] of the moving vertices, into a reused buffer; frozen
+    /// vertices whose triangles are all frozen get zero, so the work follows the moving front.
+    pub fn moving_vertex_normals_into(&self, normals: &mut Vec<DVec3>) {
+        self.normals_into(normals, true);
+    }
+
+    fn normals_into(&self, normals: &mut Vec<DVec3>, only_moving: bool) {
         normals.clear();
         normals.resize(self.positions.len(), DVec3::ZERO);
         for (_, tri) in self.triangles() {
+            if only_moving && tri.iter().all(|&v| self.states[v as usize].is_frozen()) {
+                continue;
+            }
             let [a, b, c] = tri.map(|v| self.positions[v as usize]);
             let n = (b - a).cross(c - a);
             for v in tri {

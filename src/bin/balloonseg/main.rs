@@ -58,7 +58,7 @@ fn main() -> ExitCode {
         Command::Check(args) => check::run(&args),
         Command::Distance(args) => distance::run(&args),
         Command::Phantom(args) => phantom::run(&args),
-        Command::Demo(args) => demo::run(&args),
+        Command::Demo(args) => demo::run(&args, cli.threads),
     });
     match result {
         Ok(code) => code,

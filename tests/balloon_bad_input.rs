@@ -1,0 +1,149 @@
+//! The balloon on bad input (issue 3): a clear error or a documented result, never a panic or a
+//! mesh that breaks the guarantees (closed, 2-manifold, outward, no self-intersections).
+
+use balloonseg::balloon::{BalloonParams, Segmenter};
+use balloonseg::phantom::{self, Phantom, PhantomOptions, Shape};
+use balloonseg::self_intersection::self_intersections;
+use balloonseg::{mesh_checks, ErrorKind, Image, TriMesh, VoxelBuffer};
+use glam::DVec3;
+
+fn sphere() -> Phantom {
+    phantom::render(Shape::Sphere, &PhantomOptions::default()).unwrap()
+}
+
+fn assert_valid(mesh: &TriMesh) {
+    let report = mesh_checks::check(mesh);
+    assert!(report.is_valid_closed_surface(), "{report:?}");
+    assert!(self_intersections(mesh).is_empty());
+}
+
+#[test]
+fn seed_outside_the_volume_is_an_invalid_argument_naming_it() {
+    let p = sphere();
+    let e = Segmenter::new(
+        p.image.view(),
+        BalloonParams::default(),
+        DVec3::new(0.0, 0.0, 500.0),
+    )
+    .err()
+    .unwrap();
+    assert_eq!(e.kind(), ErrorKind::InvalidArgument);
+    assert!(e.message().contains("outside the volume"), "{e}");
+}
+
+#[test]
+fn zero_iterations_is_an_invalid_argument() {
+    let p = sphere();
+    let params = BalloonParams {
+        max_iterations: 0,
+        ..BalloonParams::default()
+    };
+    let e = Segmenter::new(p.image.view(), params, p.seed_world())
+        .err()
+        .unwrap();
+    assert_eq!(e.kind(), ErrorKind::InvalidArgument);
+    assert!(e.message().contains("max_iterations"), "{e}");
+}
+
+/// Documented: a seed on the background with the defaults segments the background region it is
+/// in (the window is estimated there), bounded by the volume's faces; the result is valid.
+#[test]
+fn seed_on_background_segments_the_background_validly() {
+    let p = sphere();
+    let corner = p.image.geometry().index_to_world(DVec3::splat(2.0));
+    match Segmenter::new(p.image.view(), BalloonParams::default(), corner)
+        .and_then(|mut s| s.segment())
+    {
+        Ok((mesh, _)) => {
+            assert_valid(&mesh);
+            assert!(mesh.signed_volume() > 0.0);
+        }
+        Err(e) => assert!(!e.message().is_empty()),
+    }
+}
+
+/// Documented: when everything is foreground the balloon stops at the volume's faces; with a
+/// vertex limit too small for that, it is a leak, and the message says so.
+#[test]
+fn everything_foreground_fills_the_volume_or_is_a_leak() {
+    let p = sphere();
+    let wide = BalloonParams {
+        reference: Some(600.0),
+        tolerance: Some(1e6),
+        ..BalloonParams::default()
+    };
+    let (mesh, _) = Segmenter::new(p.image.view(), wide.clone(), p.seed_world())
+        .unwrap()
+        .segment()
+        .unwrap();
+    assert_valid(&mesh);
+    let [nx, ny, nz] = p.image.dims();
+    let spacing = p.image.geometry().spacing();
+    let box_volume =
+        (nx - 1) as f64 * spacing[0] * (ny - 1) as f64 * spacing[1] * (nz - 1) as f64 * spacing[2];
+    assert!(
+        mesh.signed_volume() > 0.9 * box_volume,
+        "{} of {box_volume}",
+        mesh.signed_volume()
+    );
+
+    let limited = BalloonParams {
+        max_vertices: 500,
+        ..wide
+    };
+    let e = Segmenter::new(p.image.view(), limited, p.seed_world())
+        .unwrap()
+        .segment()
+        .unwrap_err();
+    assert_eq!(e.kind(), ErrorKind::Leak);
+    assert!(
+        e.message().contains("leaked") && e.message().contains("tolerance"),
+        "{e}"
+    );
+}
+
+/// Documented: NaN voxels count as outside the structure (the balloon stops at them and flows
+/// around them); NaN around the seed itself is an invalid volume.
+#[test]
+fn nan_voxels_near_the_seed_are_outside_and_at_the_seed_an_error() {
+    let p = sphere();
+    let dims = p.image.dims();
+    let centre = p.image.geometry().world_to_index(p.seed_world()).round();
+    let voxels = |radius: f64| -> Image {
+        let VoxelBuffer::F32(mut v) = p.image.buffer().clone() else {
+            panic!("phantoms are float32");
+        };
+        for k in 0..dims[2] {
+            for j in 0..dims[1] {
+                for i in 0..dims[0] {
+                    let d = DVec3::new(i as f64, j as f64, k as f64) - centre;
+                    // A plate of NaN, 3 voxels from the seed.
+                    if (d.x - radius).abs() < 0.5 && d.y.abs() < 3.0 && d.z.abs() < 3.0 {
+                        v[(k * dims[1] + j) * dims[0] + i] = f32::NAN;
+                    }
+                }
+            }
+        }
+        Image::new(VoxelBuffer::F32(v), dims, *p.image.geometry()).unwrap()
+    };
+    let near = voxels(3.0);
+    let (mesh, _) = Segmenter::new(near.view(), BalloonParams::default(), p.seed_world())
+        .unwrap()
+        .segment()
+        .unwrap();
+    assert_valid(&mesh);
+    // The balloon flows around the plate: the sphere, less a little.
+    let clean = sphere_volume();
+    let volume = mesh.signed_volume();
+    assert!(volume > 0.8 * clean && volume < clean, "{volume}");
+
+    let at_seed = voxels(0.0);
+    let e = Segmenter::new(at_seed.view(), BalloonParams::default(), p.seed_world())
+        .err()
+        .unwrap();
+    assert!(e.message().contains("NaN"), "{e}");
+}
+
+fn sphere_volume() -> f64 {
+    4.0 / 3.0 * std::f64::consts::PI * 1000.0
+}

@@ -1,0 +1,68 @@
+//! The balloon on the analytic phantoms (issue 3): 10% noise, 0.8 × 0.8 × 1.5 mm voxels, an
+//! oblique grid, the defaults and only a seed. The output must be a valid surface of the
+//! shape's genus, with Dice ≥ 0.97 and a mean distance to the true surface of at most a quarter
+//! of the smallest spacing. Run them in release mode (`cargo test --release`).
+
+use balloonseg::balloon::{BalloonParams, Segmenter};
+use balloonseg::evaluation::{score_phantom, PhantomScore};
+use balloonseg::phantom::{self, PhantomOptions, Shape};
+use balloonseg::self_intersection::self_intersections;
+use balloonseg::{mesh_checks, TriMesh};
+
+const SPACING: [f64; 3] = [0.8, 0.8, 1.5];
+
+fn segmented(shape: Shape) -> (TriMesh, PhantomScore) {
+    let options = PhantomOptions {
+        spacing: SPACING,
+        direction: phantom::oblique_direction(),
+        noise: 0.1,
+        ..PhantomOptions::default()
+    };
+    let p = phantom::render(shape, &options).unwrap();
+    let mut segmenter =
+        Segmenter::new(p.image.view(), BalloonParams::default(), p.seed_world()).unwrap();
+    let (mesh, _) = segmenter.segment().unwrap();
+    let score = score_phantom(&mesh, shape, 0.2).unwrap();
+    eprintln!("{}: {score:?} {:?}", shape.name(), segmenter.stats());
+    (mesh, score)
+}
+
+fn meets_the_criteria(shape: Shape) {
+    let (mesh, score) = segmented(shape);
+    let report = mesh_checks::check(&mesh);
+    assert!(report.is_valid_closed_surface(), "{report:?}");
+    assert!(self_intersections(&mesh).is_empty());
+    assert_eq!(report.components, 1, "{report:?}");
+    assert_eq!(report.genus(), Some(i64::from(shape.genus())), "{report:?}");
+    assert!(score.dice >= 0.97, "{score:?}");
+    let smallest = SPACING.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(score.distances.mean <= 0.25 * smallest, "{score:?}");
+}
+
+#[test]
+fn sphere() {
+    meets_the_criteria(Shape::Sphere);
+}
+
+#[test]
+fn torus() {
+    meets_the_criteria(Shape::Torus);
+}
+
+#[test]
+fn double_torus() {
+    meets_the_criteria(Shape::DoubleTorus);
+}
+
+#[test]
+fn y_vessel() {
+    meets_the_criteria(Shape::YVessel);
+}
+
+#[test]
+#[ignore = "the balloon leaks through the partial-volume contact into the second tube; see BENCHMARKS.md, Balloon"]
+fn touching_tubes_keep_the_unseeded_tube_out() {
+    let (mesh, score) = segmented(Shape::TouchingTubes);
+    assert!(mesh_checks::check(&mesh).is_valid_closed_surface());
+    assert!(score.unseeded_inside <= 0.02, "{score:?}");
+}
