@@ -153,6 +153,18 @@ impl Plane {
     }
 }
 
+/// The error bound of Shewchuk's first orient3d stage with its permanent replaced by the upper
+/// bound 6 m³ (six products of three differences, each at most `m` in magnitude), padded for
+/// the rounding of m³ itself. Checking several determinants of differences from one common
+/// point against this one bound saves computing a permanent for each: a determinant
+/// `(u × v) · w` of floating-point differences u, v, w from that point, none of whose
+/// components exceeds `m` in magnitude, has the sign of the exact orient3d when its magnitude
+/// is larger than the bound.
+#[inline]
+pub fn orient3d_bound_for_differences_up_to(m: f64) -> f64 {
+    ORIENT3D_ERROR_BOUND * 6.5 * (m * m * m)
+}
+
 /// A projection of 3D points onto a coordinate plane, dropping one axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Projection {

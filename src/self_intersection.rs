@@ -19,12 +19,14 @@
 //! oriented meshes; for other meshes (an edge in three triangles, a duplicate face with the
 //! same winding) the same rules are applied to the shared indices.
 
-use glam::DVec3;
+use glam::{DVec3, DVec4};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
-use crate::predicates::{coplanar_orientation, Plane, Sign};
+use crate::predicates::{
+    coplanar_orientation, orient3d_bound_for_differences_up_to, Plane, Sign,
+};
 use crate::spatial_hash::{overlapping_pairs, spatial_order, Aabb};
 use crate::triangle_intersection::{prepared_triangles_intersect, segment_meets_prepared};
 
@@ -134,6 +136,12 @@ impl Face {
         let [a, b, c] = self.corners;
         Plane::new(a, b, c)
     }
+
+    /// The corners after corner `k`, in winding order.
+    #[inline]
+    fn others(&self, k: usize) -> [DVec3; 2] {
+        OTHERS[k].map(|o| self.corners[o])
+    }
 }
 
 /// CGAL's decision for two distinct non-degenerate triangles.
@@ -146,15 +154,15 @@ fn faces_intersect(a: &Face, b: &Face) -> bool {
     // Bit i of `in_b` (`in_a`): corner i of a (b) is a vertex of b (a). The corners of a
     // non-degenerate face are distinct vertices, so both masks have as many bits as shared
     // vertices.
-    let (mut in_b, mut in_a) = (0u8, 0u8);
-    for (i, &v) in va.iter().enumerate() {
-        for (j, &w) in vb.iter().enumerate() {
-            if v == w {
-                in_b |= 1 << i;
-                in_a |= 1 << j;
-            }
-        }
-    }
+    // Without branches: on a closed mesh most pairs share some vertex, which defeats the
+    // branch predictor.
+    let mask = |x: [u32; 3], y: [u32; 3]| {
+        (0..3).fold(0u8, |m, i| {
+            let hit = (x[i] == y[0]) | (x[i] == y[1]) | (x[i] == y[2]);
+            m | u8::from(hit) << i
+        })
+    };
+    let (in_b, in_a) = (mask(va, vb), mask(vb, va));
     match in_b.count_ones() {
         0 => prepared_triangles_intersect(&a.plane(), &b.plane()),
         1 => {
@@ -162,7 +170,13 @@ fn faces_intersect(a: &Face, b: &Face) -> bool {
                 in_b.trailing_zeros() as usize,
                 in_a.trailing_zeros() as usize,
             );
-            !opposite_edge_misses(b, j, &a.plane()) || !opposite_edge_misses(a, i, &b.plane())
+            let (v, [a1, a2], [b1, b2]) = (a.corners[i], a.others(i), b.others(j));
+            if opposite_edges_clear(v, [a1, a2], [b1, b2]) {
+                return false;
+            }
+            // Both planes are taken from the shared corner; a rotation keeps the orientation.
+            let (pa, pb) = (Plane::new(v, a1, a2), Plane::new(v, b1, b2));
+            !edge_misses([b1, b2], &pa) || !edge_misses([a1, a2], &pb)
         }
         _ => {
             let (ca, cb) = (a.corners, b.corners);
@@ -174,26 +188,51 @@ fn faces_intersect(a: &Face, b: &Face) -> bool {
                 0b101 => 2,
                 _ => 0,
             };
-            let (q, r) = ((p + 1) % 3, (p + 2) % 3);
+            let [q, r] = OTHERS[p];
             let s = match (!in_a & 0b111).trailing_zeros() as usize {
                 k @ 0..=2 => cb[k],
                 _ => ca[r],
             };
             // Intersecting iff the triangles fold onto each other: s coplanar with a (whose
             // corners p, q, r are, in rotated order) and strictly on the same side of pq as r.
-            a.plane().side(s) == Sign::Zero
+            // The filter first: on a surface, s is clearly off a's plane.
+            let (u, w, d) = (ca[q] - ca[p], ca[r] - ca[p], s - ca[p]);
+            let m = u.abs().max(w.abs()).max(d.abs()).max_element();
+            if u.cross(w).dot(d).abs() > orient3d_bound_for_differences_up_to(m) {
+                return false;
+            }
+            Plane::new(ca[p], ca[q], ca[r]).side(s) == Sign::Zero
                 && coplanar_orientation(ca[p], ca[q], ca[r], s) == Sign::Positive
         }
     }
 }
 
-/// Whether the edge of `face` opposite its corner `k` misses the triangle of `plane`, which
-/// shares that corner's vertex. Both endpoints strictly on one side of the plane (the common
-/// case, decided by the plane's filtered side test) settle it at once.
-#[inline]
-fn opposite_edge_misses(face: &Face, k: usize, plane: &Plane) -> bool {
-    let c = face.corners;
-    let edge = [c[(k + 1) % 3], c[(k + 2) % 3]];
+/// Whether, for two triangles sharing the corner `v`, each one's opposite edge is provably
+/// strictly on one side of the other's plane, so that they meet only at `v`: the common case
+/// of neighbours on a smooth surface. The four side determinants are differences from `v` and
+/// are checked against one error bound for all (`orient3d_bound_for_differences_up_to`), which
+/// decides them all unless some point is nearly coplanar with the other triangle; `false`
+/// leaves the pair to the exact tests.
+#[inline(always)]
+fn opposite_edges_clear(v: DVec3, a: [DVec3; 2], b: [DVec3; 2]) -> bool {
+    let (u, w, d1, d2) = (a[0] - v, a[1] - v, b[0] - v, b[1] - v);
+    let (na, nb) = (u.cross(w), d1.cross(d2));
+    let sides = DVec4::new(na.dot(d1), na.dot(d2), nb.dot(u), nb.dot(w));
+    let m = u.abs().max(w.abs()).max(d1.abs()).max(d2.abs()).max_element();
+    let bound = orient3d_bound_for_differences_up_to(m);
+    sides.abs().cmpgt(DVec4::splat(bound)).all()
+        && sides.x * sides.y > 0.0
+        && sides.z * sides.w > 0.0
+}
+
+/// For each corner of a triangle, the two others in winding order.
+const OTHERS: [[usize; 2]; 3] = [[1, 2], [2, 0], [0, 1]];
+
+/// Whether the segment `edge` misses the triangle of `plane`, which shares a vertex with the
+/// segment's triangle. Both endpoints strictly on one side of the plane (the common case,
+/// decided by the plane's filtered side test) settle it at once.
+#[inline(always)]
+fn edge_misses(edge: [DVec3; 2], plane: &Plane) -> bool {
     let (s0, s1) = (plane.side(edge[0]), plane.side(edge[1]));
     (s0 == s1 && s0 != Sign::Zero) || !segment_meets_prepared(edge, plane)
 }
