@@ -147,39 +147,33 @@ impl Face {
 /// CGAL's decision for two distinct non-degenerate triangles.
 ///
 /// On a closed mesh most candidate pairs are neighbours, so the shared vertices are found with
-/// plain comparisons and the neighbour cases are settled by the planes' filtered side tests
-/// before any other work.
+/// plain comparisons and the neighbour cases are settled by one floating-point filter each;
+/// only the pairs it cannot settle go to the exact tests, kept out of line so that the filters
+/// compile to straight code without spills.
+#[inline]
 fn faces_intersect(a: &Face, b: &Face) -> bool {
-    let (va, vb) = (a.vertices, b.vertices);
     // Bit i of `in_b` (`in_a`): corner i of a (b) is a vertex of b (a). The corners of a
     // non-degenerate face are distinct vertices, so both masks have as many bits as shared
-    // vertices.
-    // Without branches: on a closed mesh most pairs share some vertex, which defeats the
-    // branch predictor.
+    // vertices. Without branches: on a closed mesh most pairs share some vertex, which
+    // defeats the branch predictor.
     let mask = |x: [u32; 3], y: [u32; 3]| {
         (0..3).fold(0u8, |m, i| {
             let hit = (x[i] == y[0]) | (x[i] == y[1]) | (x[i] == y[2]);
             m | u8::from(hit) << i
         })
     };
-    let (in_b, in_a) = (mask(va, vb), mask(vb, va));
+    let (in_b, in_a) = (mask(a.vertices, b.vertices), mask(b.vertices, a.vertices));
     match in_b.count_ones() {
-        0 => prepared_triangles_intersect(&a.plane(), &b.plane()),
+        0 => unconnected_faces_intersect(a, b),
         1 => {
             let (i, j) = (
                 in_b.trailing_zeros() as usize,
                 in_a.trailing_zeros() as usize,
             );
-            let (v, [a1, a2], [b1, b2]) = (a.corners[i], a.others(i), b.others(j));
-            if opposite_edges_clear(v, [a1, a2], [b1, b2]) {
-                return false;
-            }
-            // Both planes are taken from the shared corner; a rotation keeps the orientation.
-            let (pa, pb) = (Plane::new(v, a1, a2), Plane::new(v, b1, b2));
-            !edge_misses([b1, b2], &pa) || !edge_misses([a1, a2], &pb)
+            !opposite_edges_clear(a.corners[i], a.others(i), b.others(j))
+                && faces_at_vertex_intersect(a, b, i, j)
         }
         _ => {
-            let (ca, cb) = (a.corners, b.corners);
             // The first corner p of a such that p and its successor q are shared; r is a's
             // third corner, s the corner of b off the edge pq (for a duplicate face, the one
             // at r's vertex: the same point).
@@ -189,6 +183,7 @@ fn faces_intersect(a: &Face, b: &Face) -> bool {
                 _ => 0,
             };
             let [q, r] = OTHERS[p];
+            let (ca, cb) = (&a.corners, &b.corners);
             let s = match (!in_a & 0b111).trailing_zeros() as usize {
                 k @ 0..=2 => cb[k],
                 _ => ca[r],
@@ -198,13 +193,35 @@ fn faces_intersect(a: &Face, b: &Face) -> bool {
             // The filter first: on a surface, s is clearly off a's plane.
             let (u, w, d) = (ca[q] - ca[p], ca[r] - ca[p], s - ca[p]);
             let m = u.abs().max(w.abs()).max(d.abs()).max_element();
-            if u.cross(w).dot(d).abs() > orient3d_bound_for_differences_up_to(m) {
-                return false;
-            }
-            Plane::new(ca[p], ca[q], ca[r]).side(s) == Sign::Zero
-                && coplanar_orientation(ca[p], ca[q], ca[r], s) == Sign::Positive
+            u.cross(w).dot(d).abs() <= orient3d_bound_for_differences_up_to(m)
+                && folded_onto([ca[p], ca[q], ca[r]], s)
         }
     }
+}
+
+/// Two faces without a shared vertex: whether the closed triangles meet.
+#[inline(never)]
+fn unconnected_faces_intersect(a: &Face, b: &Face) -> bool {
+    prepared_triangles_intersect(&a.plane(), &b.plane())
+}
+
+/// Two faces sharing only corner `i` of `a`, corner `j` of `b`: whether the edge of either
+/// opposite the shared corner meets the other face.
+#[cold]
+#[inline(never)]
+fn faces_at_vertex_intersect(a: &Face, b: &Face, i: usize, j: usize) -> bool {
+    let (v, [a1, a2], [b1, b2]) = (a.corners[i], a.others(i), b.others(j));
+    // Both planes are taken from the shared corner; a rotation keeps the orientation.
+    let (pa, pb) = (Plane::new(v, a1, a2), Plane::new(v, b1, b2));
+    !edge_misses([b1, b2], &pa) || !edge_misses([a1, a2], &pb)
+}
+
+/// Whether `s`, the far corner of a face sharing the edge pq with the triangle `[p, q, r]`, is
+/// coplanar with it and strictly on r's side of pq.
+#[cold]
+#[inline(never)]
+fn folded_onto([p, q, r]: [DVec3; 3], s: DVec3) -> bool {
+    Plane::new(p, q, r).side(s) == Sign::Zero && coplanar_orientation(p, q, r, s) == Sign::Positive
 }
 
 /// Whether, for two triangles sharing the corner `v`, each one's opposite edge is provably

@@ -230,16 +230,36 @@ impl Grid {
     #[inline]
     fn for_each_cell(&self, b: &Aabb, mut f: impl FnMut(u64, u8)) {
         let (lo, hi) = (self.cell(b.lo), self.cell(b.hi));
-        for k in lo[2]..=hi[2] {
-            let (z, z_first) = (spread(k) << 2, u8::from(k == lo[2]) << 2);
-            for j in lo[1]..=hi[1] {
-                let (yz, yz_first) = (z | spread(j) << 1, z_first | u8::from(j == lo[1]) << 1);
-                for i in lo[0]..=hi[0] {
-                    f(yz | spread(i), yz_first | u8::from(i == lo[0]));
+        // The keys of successive cells by adding one in the bits of one axis, rather than
+        // spreading every coordinate anew. (Exclusive ranges: `hi` is at most `AXIS_MAX`, and
+        // inclusive ones compile to slower loops.)
+        let (x0, y0) = (spread(lo[0]), spread(lo[1]) << 1);
+        let mut z = spread(lo[2]) << 2;
+        for k in lo[2]..hi[2] + 1 {
+            let z_first = u8::from(k == lo[2]) << 2;
+            let mut y = y0;
+            for j in lo[1]..hi[1] + 1 {
+                let yz_first = z_first | u8::from(j == lo[1]) << 1;
+                let mut x = x0;
+                for i in lo[0]..hi[0] + 1 {
+                    f(x | y | z, yz_first | u8::from(i == lo[0]));
+                    x = next_on_axis(x, AXIS_BITS);
                 }
+                y = next_on_axis(y, AXIS_BITS << 1);
             }
+            z = next_on_axis(z, AXIS_BITS << 2);
         }
     }
+}
+
+/// The bits of the x coordinate in a Morton key.
+const AXIS_BITS: u64 = 0x1249_2492_4924_9249;
+
+/// The bits `axis` of a Morton key plus one, as a coordinate: filling the other bits with ones
+/// carries the addition across them.
+#[inline]
+fn next_on_axis(bits: u64, axis: u64) -> u64 {
+    (bits | !axis).wrapping_add(1) & axis
 }
 
 /// The 21 low bits of `v` moved to every third bit: one axis of a Morton code.
@@ -323,8 +343,8 @@ impl EntryList for OverlappedCells<'_> {
 /// sorted: several times faster than sorting the whole list, and no intermediate list.
 fn sorted_entries(max_key: u64, list: &impl EntryList) -> Vec<Entry> {
     let sources = list.sources();
-    // About 16 sources per bucket, at most 2^16 buckets.
-    let top_bits = (usize::BITS - (sources / 16).leading_zeros()).clamp(1, 16);
+    // About 4 sources per bucket, at most 2^20 buckets.
+    let top_bits = (usize::BITS - (sources / 4).leading_zeros()).clamp(1, 20);
     let buckets = 1usize << top_bits;
     let shift = (u64::BITS - max_key.leading_zeros()).saturating_sub(top_bits);
     let bucket = |e: &Entry| (e.key >> shift) as usize;
@@ -442,8 +462,9 @@ impl<'a> Level<'a> {
         let within = bounds.par_windows(2).fold(Vec::new, |mut out, bounds| {
             for cell in self.entries[bounds[0]..bounds[1]].chunk_by(|e, f| e.key == f.key) {
                 for (x, e) in cell.iter().enumerate() {
+                    let a = &self.boxes[e.item as usize];
                     for f in &cell[x + 1..] {
-                        self.test(e.item, e.first, f, accept, &mut out);
+                        self.test(e.item, a, e.first, f, accept, &mut out);
                     }
                 }
             }
@@ -456,7 +477,7 @@ impl<'a> Level<'a> {
                 self.grid
                     .for_each_cell(&self.boxes[item as usize], |key, first| {
                         for e in self.cell_entries(key) {
-                            self.test(item, first, e, accept, &mut out);
+                            self.test(item, &self.boxes[item as usize], first, e, accept, &mut out);
                         }
                     });
                 out
@@ -467,22 +488,28 @@ impl<'a> Level<'a> {
         })
     }
 
-    /// Tests the pair of the box at position `x` and the box of entry `y`, met in the cell of
+    /// Tests the pair of the box `x_box` at position `x` and the box of entry `y`, met in the cell of
     /// `y`, if this is the cell that owns the pair: the cell of the lower corner of their
     /// overlap. Its coordinates are the per-axis maxima of those of the boxes' first cells; as
     /// both boxes cover the cell, it is the owner iff along each axis it is the first cell of
     /// one of them (`x_first`, `y.first`).
     #[inline]
-    fn test<F>(&self, x: u32, x_first: u8, y: &Entry, accept: &F, out: &mut Vec<(u32, u32)>)
-    where
+    fn test<F>(
+        &self,
+        x: u32,
+        x_box: &Aabb,
+        x_first: u8,
+        y: &Entry,
+        accept: &F,
+        out: &mut Vec<(u32, u32)>,
+    ) where
         F: Fn(u32, u32) -> bool,
     {
         if x_first | y.first != 0b111 {
             return;
         }
         let y = y.item;
-        let (a, b) = (&self.boxes[x as usize], &self.boxes[y as usize]);
-        if a.overlaps(b) {
+        if x_box.overlaps(&self.boxes[y as usize]) {
             let pair = (x.min(y), x.max(y));
             if accept(pair.0, pair.1) {
                 out.push(pair);
