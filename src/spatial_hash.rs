@@ -83,30 +83,37 @@ pub fn overlapping_pairs<F>(boxes: &[Aabb], accept: F) -> Vec<(u32, u32)>
 where
     F: Fn(u32, u32) -> bool + Sync,
 {
-    let Some(origin) = lowest_corner(boxes) else {
+    let Some(all) = Summary::of(boxes.par_iter()) else {
         return Vec::new();
     };
-    let level = |cell_size: f64, primary: &[u32], settled: &[u32]| {
-        Level::new(boxes, Grid::new(origin, cell_size), primary).pairs(settled, &accept)
+    let origin = all.lo;
+    let level = |cell_size: f64, primary: &[u32], settled: &[u32], highest: DVec3| {
+        Level::new(boxes, Grid::new(origin, cell_size), primary, highest).pairs(settled, &accept)
     };
     // Positions of the boxes still to place, and of those placed at a finer level.
     let mut pending: Vec<u32> = (0..boxes.len() as u32).collect();
     let mut settled: Vec<u32> = Vec::new();
     let mut pairs = Vec::new();
-    while !pending.is_empty() {
-        let cell_size =
-            CELL_SIZE_PER_EXTENT * mean_extent(pending.par_iter().map(|&i| &boxes[i as usize]));
+    let mut summary = Some(all);
+    while let Some(pending_summary) = summary {
+        let cell_size = CELL_SIZE_PER_EXTENT * pending_summary.mean_extent;
         let grid = Grid::new(origin, cell_size);
         let (fits, deferred) = split_by_size(boxes, &pending, &grid);
         if fits.is_empty() {
             // Only when extents or coordinates are too extreme for a grid (infinite mean
             // extent, more than 2^21 cells along an axis): one cell holding everything.
-            pairs.extend(level(f64::INFINITY, &pending, &settled));
+            pairs.extend(level(
+                f64::INFINITY,
+                &pending,
+                &settled,
+                pending_summary.hi,
+            ));
             break;
         }
-        pairs.extend(level(cell_size, &fits, &settled));
+        pairs.extend(level(cell_size, &fits, &settled, pending_summary.hi));
         settled.extend(fits);
         pending = deferred;
+        summary = Summary::of(pending.par_iter().map(|&i| &boxes[i as usize]));
     }
     pairs.par_sort_unstable();
     pairs
@@ -117,36 +124,58 @@ where
 /// search visits them. (The alignment matters: ordered on an unrelated grid, the same boxes
 /// were searched about half as fast.)
 pub fn spatial_order(boxes: &[Aabb]) -> Vec<u32> {
-    let Some(origin) = lowest_corner(boxes) else {
+    let Some(all) = Summary::of(boxes.par_iter()) else {
         return Vec::new();
     };
-    let first = CELL_SIZE_PER_EXTENT * mean_extent(boxes.par_iter());
-    let grid = Grid::new(origin, first / 4.0);
-    let highest = boxes.par_iter().map(|b| b.hi).reduce(|| origin, DVec3::max);
+    let grid = Grid::new(all.lo, CELL_SIZE_PER_EXTENT * all.mean_extent / 4.0);
     let corners = LowerCorners { boxes, grid };
-    sorted_entries(Grid::key(grid.cell(highest)), &corners)
+    sorted_entries(Grid::key(grid.cell(all.hi)), &corners)
         .into_iter()
         .map(|e| e.item)
         .collect()
 }
 
-fn lowest_corner(boxes: &[Aabb]) -> Option<DVec3> {
-    boxes.par_iter().map(|b| b.lo).reduce_with(DVec3::min)
+/// What the grids need to know of a set of boxes, gathered in one pass over them.
+#[derive(Clone, Copy)]
+struct Summary {
+    /// The lowest and highest corner of all boxes.
+    lo: DVec3,
+    hi: DVec3,
+    /// The mean of the boxes' largest side, or infinity when that is not a usable cell size.
+    mean_extent: f64,
 }
 
-/// The mean of the boxes' largest side, or infinity when that is not a usable cell size.
-/// Summed in fixed chunks, so that the result does not depend on the thread count.
-fn mean_extent<'b>(boxes: impl IndexedParallelIterator<Item = &'b Aabb>) -> f64 {
-    let n = boxes.len() as f64;
-    let partial: Vec<f64> = boxes
-        .chunks(4096)
-        .map(|chunk| chunk.iter().map(|b| b.max_extent() / n).sum())
-        .collect();
-    let mean: f64 = partial.iter().sum();
-    if mean.is_finite() && mean > 0.0 {
-        mean
-    } else {
-        f64::INFINITY
+impl Summary {
+    /// `None` for no boxes. Summed in fixed chunks, so that the mean does not depend on the
+    /// thread count.
+    fn of<'b>(boxes: impl IndexedParallelIterator<Item = &'b Aabb>) -> Option<Summary> {
+        let n = boxes.len() as f64;
+        let parts: Vec<Summary> = boxes
+            .chunks(4096)
+            .map(|chunk| {
+                let mut part = Summary {
+                    lo: DVec3::INFINITY,
+                    hi: DVec3::NEG_INFINITY,
+                    mean_extent: 0.0,
+                };
+                for b in chunk {
+                    part.lo = part.lo.min(b.lo);
+                    part.hi = part.hi.max(b.hi);
+                    part.mean_extent += b.max_extent() / n;
+                }
+                part
+            })
+            .collect();
+        let mut all = *parts.first()?;
+        for part in &parts[1..] {
+            all.lo = all.lo.min(part.lo);
+            all.hi = all.hi.max(part.hi);
+            all.mean_extent += part.mean_extent;
+        }
+        if !(all.mean_extent.is_finite() && all.mean_extent > 0.0) {
+            all.mean_extent = f64::INFINITY;
+        }
+        Some(all)
     }
 }
 
@@ -411,11 +440,8 @@ struct Level<'a> {
 const ENTRIES_PER_TASK: usize = 4096;
 
 impl<'a> Level<'a> {
-    fn new(boxes: &'a [Aabb], grid: Grid, primary: &[u32]) -> Level<'a> {
-        let highest = primary
-            .par_iter()
-            .map(|&i| boxes[i as usize].hi)
-            .reduce(|| grid.origin, DVec3::max);
+    /// `highest` bounds the upper corners of the primary boxes.
+    fn new(boxes: &'a [Aabb], grid: Grid, primary: &[u32], highest: DVec3) -> Level<'a> {
         let cells = OverlappedCells {
             boxes,
             items: primary,
