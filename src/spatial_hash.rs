@@ -32,23 +32,42 @@
 
 use std::ops::Range;
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-/// A closed axis-aligned box.
+/// A closed axis-aligned box in single precision, rounded outwards from the double-precision
+/// box it stands for: it contains that box, so boxes that overlap in double precision overlap
+/// here too (some that only touch or nearly touch may overlap only here). Half the size of a
+/// double-precision box, which halves the memory the broad phase streams through; callers
+/// decide candidate pairs exactly anyway.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Aabb {
-    pub lo: DVec3,
-    pub hi: DVec3,
+    pub lo: Vec3,
+    pub hi: Vec3,
 }
 
 impl Aabb {
+    /// A single-precision box containing the box from `lo` to `hi`, a few ulps larger.
+    ///
+    /// Rounding to nearest moves a value by at most 2^-24 of its magnitude, or 2^-150 below
+    /// the normal range; pushing it outwards by more than that first, in double precision,
+    /// makes the rounded bound land outside. Values beyond the single-precision range become
+    /// infinite, and are clamped on the side where that would cut the box.
+    #[inline]
+    pub fn new(lo: DVec3, hi: DVec3) -> Aabb {
+        const RELATIVE: f64 = 1.0 / (1u64 << 23) as f64;
+        const ABSOLUTE: f64 = 2.0 * f32::from_bits(1) as f64;
+        let lo = (lo - (lo.abs() * RELATIVE + ABSOLUTE)).as_vec3();
+        let hi = (hi + (hi.abs() * RELATIVE + ABSOLUTE)).as_vec3();
+        Aabb {
+            lo: lo.min(Vec3::splat(f32::MAX)),
+            hi: hi.max(Vec3::splat(f32::MIN)),
+        }
+    }
+
     pub fn of_triangle(corners: [DVec3; 3]) -> Aabb {
         let [a, b, c] = corners;
-        Aabb {
-            lo: a.min(b).min(c),
-            hi: a.max(b).max(c),
-        }
+        Aabb::new(a.min(b).min(c), a.max(b).max(c))
     }
 
     /// Whether the closed boxes share a point (touching counts).
@@ -58,7 +77,7 @@ impl Aabb {
     }
 
     fn max_extent(&self) -> f64 {
-        (self.hi - self.lo).max_element()
+        (self.hi.as_dvec3() - self.lo.as_dvec3()).max_element()
     }
 }
 
@@ -159,8 +178,8 @@ impl Summary {
                     mean_extent: 0.0,
                 };
                 for b in chunk {
-                    part.lo = part.lo.min(b.lo);
-                    part.hi = part.hi.max(b.hi);
+                    part.lo = part.lo.min(b.lo.as_dvec3());
+                    part.hi = part.hi.max(b.hi.as_dvec3());
                     part.mean_extent += b.max_extent() / n;
                 }
                 part
@@ -248,7 +267,7 @@ impl Grid {
     }
 
     fn cell_count(&self, b: &Aabb) -> i64 {
-        let (lo, hi) = (self.cell(b.lo), self.cell(b.hi));
+        let (lo, hi) = (self.cell(b.lo.as_dvec3()), self.cell(b.hi.as_dvec3()));
         (0..3)
             .map(|k| i64::from(hi[k]) - i64::from(lo[k]) + 1)
             .fold(1, i64::saturating_mul)
@@ -258,7 +277,7 @@ impl Grid {
     /// x, y, z) along which that cell is the box's first.
     #[inline]
     fn for_each_cell(&self, b: &Aabb, mut f: impl FnMut(u64, u8)) {
-        let (lo, hi) = (self.cell(b.lo), self.cell(b.hi));
+        let (lo, hi) = (self.cell(b.lo.as_dvec3()), self.cell(b.hi.as_dvec3()));
         // The keys of successive cells by adding one in the bits of one axis, rather than
         // spreading every coordinate anew. (Exclusive ranges: `hi` is at most `AXIS_MAX`, and
         // inclusive ones compile to slower loops.)
@@ -332,7 +351,7 @@ impl EntryList for LowerCorners<'_> {
     fn for_each(&self, sources: Range<usize>, mut f: impl FnMut(Entry)) {
         for (item, b) in (sources.start as u32..).zip(&self.boxes[sources]) {
             f(Entry {
-                key: Grid::key(self.grid.cell(b.lo)),
+                key: Grid::key(self.grid.cell(b.lo.as_dvec3())),
                 item,
                 first: 0b111,
             });
@@ -562,10 +581,7 @@ mod tests {
     }
 
     fn unit(lo: DVec3) -> Aabb {
-        Aabb {
-            lo,
-            hi: lo + DVec3::ONE,
-        }
+        Aabb::new(lo, lo + DVec3::ONE)
     }
 
     /// Random boxes from a xorshift generator; sizes spread over `decades` powers of ten.
@@ -582,10 +598,7 @@ mod tests {
                 let lo = DVec3::new(uniform(), uniform(), uniform()) * 100.0;
                 let size = 10f64.powf(decades * uniform() - decades + 0.5);
                 let extent = DVec3::new(uniform(), uniform(), uniform()) * size;
-                Aabb {
-                    lo,
-                    hi: lo + extent,
-                }
+                Aabb::new(lo, lo + extent)
             })
             .collect()
     }
@@ -619,7 +632,8 @@ mod tests {
             unit(DVec3::ZERO),
             unit(DVec3::X),
             unit(DVec3::ZERO),
-            unit(DVec3::splat(1f64.next_up())),
+            // Eight single-precision ulps beyond the first box.
+            unit(DVec3::splat(1.0 + 2f64.powi(-20))),
             unit(DVec3::ONE),
         ];
         let pairs = overlapping_pairs(&boxes, |_, _| true);
@@ -641,13 +655,47 @@ mod tests {
                 ))
             })
             .collect();
-        boxes.push(Aabb {
-            lo: DVec3::splat(-1.0e6),
-            hi: DVec3::new(1.0e6, 1.0e6, 0.5),
-        });
+        boxes.push(Aabb::new(
+            DVec3::splat(-1.0e6),
+            DVec3::new(1.0e6, 1.0e6, 0.5),
+        ));
         let pairs = overlapping_pairs(&boxes, |_, _| true);
         assert_eq!(pairs.len(), 10_000);
         assert!(pairs.iter().all(|&(_, b)| b == 10_000));
+    }
+
+    #[test]
+    fn single_precision_boxes_contain_the_double_precision_ones_tightly() {
+        let values = [
+            0.0,
+            1.0,
+            -1.0,
+            0.1,
+            -0.1,
+            1.0 + 1e-12,
+            std::f64::consts::PI * 1e5,
+            -123_456.789_012_345,
+            1e-30,
+            -1e-30,
+            1e-44,
+            -1e-44,
+            1e-300,
+            -1e-300,
+            3.0e38,
+            -3.0e38,
+            1e300,
+            -1e300,
+        ];
+        for &x in &values {
+            let b = Aabb::new(DVec3::splat(x), DVec3::splat(x));
+            let (lo, hi) = (f64::from(b.lo.x), f64::from(b.hi.x));
+            assert!(lo <= x && x <= hi, "{x}: [{lo}, {hi}]");
+            if x.abs() < 1e38 {
+                // A few ulps of single precision (or of its smallest subnormal) at most.
+                let slack = 5.0 * (x.abs() * 2f64.powi(-23)).max(2f64.powi(-149));
+                assert!(x - lo <= slack && hi - x <= slack, "{x}: [{lo}, {hi}]");
+            }
+        }
     }
 
     #[test]
@@ -672,10 +720,7 @@ mod tests {
 
     #[test]
     fn extreme_extents_and_coordinates_fall_back_to_coarse_cells() {
-        let everything = Aabb {
-            lo: DVec3::splat(-f64::MAX),
-            hi: DVec3::splat(f64::MAX),
-        };
+        let everything = Aabb::new(DVec3::splat(-f64::MAX), DVec3::splat(f64::MAX));
         let boxes = [everything, unit(DVec3::ZERO), everything];
         assert_eq!(overlapping_pairs(&boxes, |_, _| true), brute_force(&boxes));
         // Unit boxes 10^9 cells apart: cell coordinates beyond 21 bits are clamped.
@@ -748,10 +793,7 @@ mod tests {
     #[test]
     fn cells_of_a_box_know_the_axes_along_which_they_come_first() {
         let grid = Grid::new(DVec3::ZERO, 1.0);
-        let b = Aabb {
-            lo: DVec3::new(0.5, 1.5, 2.5),
-            hi: DVec3::new(1.5, 1.7, 4.5),
-        };
+        let b = Aabb::new(DVec3::new(0.5, 1.5, 2.5), DVec3::new(1.5, 1.7, 4.5));
         let mut cells = Vec::new();
         grid.for_each_cell(&b, |key, first| cells.push((key, first)));
         let expected: Vec<(u64, u8)> = [
@@ -778,7 +820,7 @@ mod tests {
         // Consecutive boxes are close: the mean step is far below the mean random distance.
         let step: f64 = order
             .windows(2)
-            .map(|w| boxes[w[0] as usize].lo.distance(boxes[w[1] as usize].lo))
+            .map(|w| f64::from(boxes[w[0] as usize].lo.distance(boxes[w[1] as usize].lo)))
             .sum::<f64>()
             / 999.0;
         assert!(step < 20.0, "{step}");
