@@ -384,11 +384,14 @@ impl EntryList for OverlappedCells<'_> {
 /// The entries of `list`, sorted by key; `max_key` bounds their keys.
 ///
 /// A counting sort on the top bits of the keys distributes the entries into buckets of a few
-/// dozen entries each, written straight to their final place; the buckets are then sorted in
-/// parallel. Each thread counts, then writes, the entries of its share of the sources into its
-/// own sub-slice of every bucket. Entries come nearly in Morton order (boxes are stored along
-/// the curve), so the writes are almost sequential and the small sorts find their input nearly
-/// sorted: several times faster than sorting the whole list, and no intermediate list.
+/// entries each, written straight to their final place; the buckets are then sorted in
+/// parallel. Each thread makes the entries of its share of the sources once, counting them per
+/// bucket, then copies them into its own sub-slice of every bucket. Entries come nearly in
+/// Morton order (boxes are stored along the curve), so the writes are almost sequential and
+/// the small sorts find their input nearly sorted: several times faster than sorting the whole
+/// list. (Keeping the entries rather than making them once for counting and once for writing
+/// takes one more list of entries, and a fifth fewer instructions for the table of a 0.3M
+/// triangle sphere.)
 fn sorted_entries(max_key: u64, list: &impl EntryList) -> Vec<Entry> {
     let sources = list.sources();
     // About 4 sources per bucket, at most 2^20 buckets.
@@ -398,14 +401,20 @@ fn sorted_entries(max_key: u64, list: &impl EntryList) -> Vec<Entry> {
     let bucket = |e: &Entry| (e.key >> shift) as usize;
     let parts = rayon::current_num_threads().clamp(1, sources.max(1));
     let part = |p: usize| p * sources / parts..(p + 1) * sources / parts;
-    let counts: Vec<Vec<usize>> = (0..parts)
+    let (made, counts): (Vec<Vec<Entry>>, Vec<Vec<usize>>) = (0..parts)
         .into_par_iter()
         .map(|p| {
             let mut counts = vec![0usize; buckets];
-            list.for_each(part(p), |e| counts[bucket(&e)] += 1);
-            counts
+            // Room for a few entries per source: the address space is only touched as
+            // entries are written.
+            let mut made = Vec::with_capacity(4 * part(p).len());
+            list.for_each(part(p), |e| {
+                counts[bucket(&e)] += 1;
+                made.push(e);
+            });
+            (made, counts)
         })
-        .collect();
+        .unzip();
     let sizes: Vec<usize> = (0..buckets)
         .map(|b| counts.iter().map(|c| c[b]).sum())
         .collect();
@@ -425,14 +434,14 @@ fn sorted_entries(max_key: u64, list: &impl EntryList) -> Vec<Entry> {
     }
     shares
         .into_par_iter()
-        .enumerate()
-        .for_each(|(p, mut share)| {
+        .zip(made)
+        .for_each(|(mut share, made)| {
             let mut filled = vec![0usize; buckets];
-            list.for_each(part(p), |e| {
+            for e in made {
                 let b = bucket(&e);
                 share[b][filled[b]] = e;
                 filled[b] += 1;
-            });
+            }
         });
     let mut slices = Vec::with_capacity(buckets);
     let mut rest = entries.as_mut_slice();
