@@ -117,7 +117,13 @@ where
     while let Some(pending_summary) = summary {
         let cell_size = CELL_SIZE_PER_EXTENT * pending_summary.mean_extent;
         let grid = Grid::new(origin, cell_size);
-        let (fits, deferred) = split_by_size(boxes, &pending, &grid);
+        // A box at most 1.5 cells wide (rounding included) covers at most 3 cells along each
+        // axis, hence at most `SMALL_BOX_CELLS`: on a mesh of even triangles, all of them.
+        let (fits, deferred) = if pending_summary.max_extent <= 1.5 * cell_size {
+            (std::mem::take(&mut pending), Vec::new())
+        } else {
+            split_by_size(boxes, &pending, &grid)
+        };
         if fits.is_empty() {
             // Only when extents or coordinates are too extreme for a grid (infinite mean
             // extent, more than 2^21 cells along an axis): one cell holding everything.
@@ -162,6 +168,8 @@ struct Summary {
     hi: DVec3,
     /// The mean of the boxes' largest side, or infinity when that is not a usable cell size.
     mean_extent: f64,
+    /// The largest side of all boxes.
+    max_extent: f64,
 }
 
 impl Summary {
@@ -176,11 +184,14 @@ impl Summary {
                     lo: DVec3::INFINITY,
                     hi: DVec3::NEG_INFINITY,
                     mean_extent: 0.0,
+                    max_extent: 0.0,
                 };
                 for b in chunk {
                     part.lo = part.lo.min(b.lo.as_dvec3());
                     part.hi = part.hi.max(b.hi.as_dvec3());
-                    part.mean_extent += b.max_extent() / n;
+                    let extent = b.max_extent();
+                    part.mean_extent += extent / n;
+                    part.max_extent = part.max_extent.max(extent);
                 }
                 part
             })
@@ -190,6 +201,7 @@ impl Summary {
             all.lo = all.lo.min(part.lo);
             all.hi = all.hi.max(part.hi);
             all.mean_extent += part.mean_extent;
+            all.max_extent = all.max_extent.max(part.max_extent);
         }
         if !(all.mean_extent.is_finite() && all.mean_extent > 0.0) {
             all.mean_extent = f64::INFINITY;
