@@ -24,9 +24,7 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
-use crate::predicates::{
-    coplanar_orientation, orient3d_bound_for_differences_up_to, Plane, Sign,
-};
+use crate::predicates::{coplanar_orientation, orient3d_bound_for_differences_up_to, Plane, Sign};
 use crate::spatial_hash::{overlapping_pairs, spatial_order, Aabb};
 use crate::triangle_intersection::{prepared_triangles_intersect, segment_meets_prepared};
 
@@ -235,7 +233,12 @@ fn opposite_edges_clear(v: DVec3, a: [DVec3; 2], b: [DVec3; 2]) -> bool {
     let (u, w, d1, d2) = (a[0] - v, a[1] - v, b[0] - v, b[1] - v);
     let (na, nb) = (u.cross(w), d1.cross(d2));
     let sides = DVec4::new(na.dot(d1), na.dot(d2), nb.dot(u), nb.dot(w));
-    let m = u.abs().max(w.abs()).max(d1.abs()).max(d2.abs()).max_element();
+    let m = u
+        .abs()
+        .max(w.abs())
+        .max(d1.abs())
+        .max(d2.abs())
+        .max_element();
     let bound = orient3d_bound_for_differences_up_to(m);
     sides.abs().cmpgt(DVec4::splat(bound)).all()
         && sides.x * sides.y > 0.0

@@ -56,7 +56,8 @@ impl Aabb {
     #[inline]
     pub fn new(lo: DVec3, hi: DVec3) -> Aabb {
         const RELATIVE: f64 = 1.0 / (1u64 << 23) as f64;
-        const ABSOLUTE: f64 = 2.0 * f32::from_bits(1) as f64;
+        // 2^-148, twice the smallest subnormal.
+        const ABSOLUTE: f64 = 1.0 / (1u128 << 127) as f64 / (1u64 << 21) as f64;
         let lo = (lo - (lo.abs() * RELATIVE + ABSOLUTE)).as_vec3();
         let hi = (hi + (hi.abs() * RELATIVE + ABSOLUTE)).as_vec3();
         Aabb {
@@ -127,12 +128,7 @@ where
         if fits.is_empty() {
             // Only when extents or coordinates are too extreme for a grid (infinite mean
             // extent, more than 2^21 cells along an axis): one cell holding everything.
-            pairs.extend(level(
-                f64::INFINITY,
-                &pending,
-                &settled,
-                pending_summary.hi,
-            ));
+            pairs.extend(level(f64::INFINITY, &pending, &settled, pending_summary.hi));
             break;
         }
         pairs.extend(level(cell_size, &fits, &settled, pending_summary.hi));
