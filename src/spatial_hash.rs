@@ -15,6 +15,10 @@
 //! box tests miss the cache (measured several times slower on 0.3M–1.3M triangle meshes).
 //! `spatial_order` lets callers store their boxes along the same curve.
 //!
+//! Boxes are kept in single precision, rounded outwards (`Aabb`): half the memory to stream
+//! through, for a few more candidate pairs among boxes that nearly touch, which the caller's
+//! exact test rejects as it would any other.
+//!
 //! Two boxes that overlap share several cells; the pair is examined only in the cell holding
 //! the lower corner of their overlap, which both boxes cover. So each pair is tested exactly
 //! once without a global set of visited pairs, and runs are processed in parallel. The result
