@@ -4,12 +4,13 @@
 Generates test meshes (icospheres with a cap pushed through the opposite side, two overlapping
 spheres, coplanar and touching grids, clean spheres), writes them as OFF, runs
 `cpp_tests/cgal_self_intersections.cpp` (CGAL Polygon_mesh_processing::self_intersections,
-sequential) and `examples/self_intersections_off.rs` (ours, rayon with 2 threads) on each,
+sequential) and `examples/self_intersections_off.rs` (ours, rayon with 2 threads unless
+`--threads` says otherwise) on each,
 asserts that both report the same set of face pairs, and prints a table of the best-of-N
 times and the speed-up.
 
 Usage: /tmp/venv/bin/python scripts/compare_self_intersection.py [--quick] [--repeats N]
-       [--rounds N] [--work DIR] [--cases NAME,...]
+       [--rounds N] [--work DIR] [--cases NAME,...] [--threads N]
 Builds both programs if needed (CGAL with -O2 -DNDEBUG, ours with cargo --release). Each program
 reports its best of `repeats` runs; the two programs are run alternately `rounds` times and the
 best of each is kept, so that a burst of load on a shared machine hits both alike. Read the
@@ -216,6 +217,9 @@ def main():
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--work", default="/tmp/balloonseg-si-compare")
     parser.add_argument("--cases", default="", help="comma-separated case names")
+    parser.add_argument("--threads", type=int, default=2,
+                        help="rayon threads for ours (CGAL is sequential); 1 compares like with "
+                             "like on a loaded machine")
     args = parser.parse_args()
     build()
     os.makedirs(args.work, exist_ok=True)
@@ -231,7 +235,8 @@ def main():
         cgal_s = ours_s = float("inf")
         for _ in range(args.rounds):
             cgal_s = min(cgal_s, run([CGAL_BIN, off, cgal_pairs, str(args.repeats)])[0])
-            ours_s = min(ours_s, run([OURS_BIN, off, ours_pairs, str(args.repeats), "2"])[0])
+            ours_s = min(ours_s, run([OURS_BIN, off, ours_pairs, str(args.repeats),
+                                      str(args.threads)])[0])
         a, b = read_pairs(cgal_pairs), read_pairs(ours_pairs)
         same = a == b
         if not same:

@@ -153,6 +153,18 @@ impl Plane {
     }
 }
 
+/// The error bound of Shewchuk's first orient3d stage with its permanent replaced by the upper
+/// bound 6 m³ (six products of three differences, each at most `m` in magnitude), padded for
+/// the rounding of m³ itself. Checking several determinants of differences from one common
+/// point against this one bound saves computing a permanent for each: a determinant
+/// `(u × v) · w` of floating-point differences u, v, w from that point, none of whose
+/// components exceeds `m` in magnitude, has the sign of the exact orient3d when its magnitude
+/// is larger than the bound.
+#[inline]
+pub fn orient3d_bound_for_differences_up_to(m: f64) -> f64 {
+    ORIENT3D_ERROR_BOUND * 6.5 * (m * m * m)
+}
+
 /// A projection of 3D points onto a coordinate plane, dropping one axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Projection {
@@ -324,6 +336,42 @@ mod tests {
             zeros > 100,
             "the generator must produce exactly coplanar cases"
         );
+    }
+
+    #[test]
+    fn the_bound_for_differences_never_lets_a_wrong_sign_through() {
+        // Nearly coplanar points, offset from the plane by 1e-17 to 1e-12, where the
+        // floating-point determinant is often wrong: whenever it exceeds the bound, its sign
+        // must be the exact one.
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let (mut decided, mut undecided) = (0, 0);
+        for _ in 0..20_000 {
+            let o = DVec3::new(next(), next(), next()) * 4.0;
+            let (u, v) = (
+                DVec3::new(next(), next(), next()),
+                DVec3::new(next(), next(), next()),
+            );
+            let (p, q) = (o + u, o + v);
+            // A point on the plane up to the rounding of its coordinates, or slightly off it.
+            let off = u.cross(v) * next() * 10f64.powf(-17.0 + 10.0 * next().abs());
+            let r = o + u * next() + v * next() + off;
+            let (du, dv, dw) = (p - o, q - o, r - o);
+            let m = du.abs().max(dv.abs()).max(dw.abs()).max_element();
+            let det = du.cross(dv).dot(dw);
+            if det.abs() > orient3d_bound_for_differences_up_to(m) {
+                decided += 1;
+                assert_eq!(Sign::of(det), orient3d(o, p, q, r), "{o} {p} {q} {r}");
+            } else {
+                undecided += 1;
+            }
+        }
+        assert!(decided > 1000 && undecided > 1000, "{decided} {undecided}");
     }
 
     #[test]

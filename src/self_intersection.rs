@@ -19,12 +19,12 @@
 //! oriented meshes; for other meshes (an edge in three triangles, a duplicate face with the
 //! same winding) the same rules are applied to the shared indices.
 
-use glam::DVec3;
+use glam::{DVec3, DVec4};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
-use crate::predicates::{coplanar_orientation, Plane, Sign};
+use crate::predicates::{coplanar_orientation, orient3d_bound_for_differences_up_to, Plane, Sign};
 use crate::spatial_hash::{overlapping_pairs, spatial_order, Aabb};
 use crate::triangle_intersection::{prepared_triangles_intersect, segment_meets_prepared};
 
@@ -134,38 +134,44 @@ impl Face {
         let [a, b, c] = self.corners;
         Plane::new(a, b, c)
     }
+
+    /// The corners after corner `k`, in winding order.
+    #[inline]
+    fn others(&self, k: usize) -> [DVec3; 2] {
+        OTHERS[k].map(|o| self.corners[o])
+    }
 }
 
 /// CGAL's decision for two distinct non-degenerate triangles.
 ///
 /// On a closed mesh most candidate pairs are neighbours, so the shared vertices are found with
-/// plain comparisons and the neighbour cases are settled by the planes' filtered side tests
-/// before any other work.
+/// plain comparisons and the neighbour cases are settled by one floating-point filter each;
+/// only the pairs it cannot settle go to the exact tests, kept out of line so that the filters
+/// compile to straight code without spills.
+#[inline]
 fn faces_intersect(a: &Face, b: &Face) -> bool {
-    let (va, vb) = (a.vertices, b.vertices);
     // Bit i of `in_b` (`in_a`): corner i of a (b) is a vertex of b (a). The corners of a
     // non-degenerate face are distinct vertices, so both masks have as many bits as shared
-    // vertices.
-    let (mut in_b, mut in_a) = (0u8, 0u8);
-    for (i, &v) in va.iter().enumerate() {
-        for (j, &w) in vb.iter().enumerate() {
-            if v == w {
-                in_b |= 1 << i;
-                in_a |= 1 << j;
-            }
-        }
-    }
+    // vertices. Without branches: on a closed mesh most pairs share some vertex, which
+    // defeats the branch predictor.
+    let mask = |x: [u32; 3], y: [u32; 3]| {
+        (0..3).fold(0u8, |m, i| {
+            let hit = (x[i] == y[0]) | (x[i] == y[1]) | (x[i] == y[2]);
+            m | u8::from(hit) << i
+        })
+    };
+    let (in_b, in_a) = (mask(a.vertices, b.vertices), mask(b.vertices, a.vertices));
     match in_b.count_ones() {
-        0 => prepared_triangles_intersect(&a.plane(), &b.plane()),
+        0 => unconnected_faces_intersect(a, b),
         1 => {
             let (i, j) = (
                 in_b.trailing_zeros() as usize,
                 in_a.trailing_zeros() as usize,
             );
-            !opposite_edge_misses(b, j, &a.plane()) || !opposite_edge_misses(a, i, &b.plane())
+            !opposite_edges_clear(a.corners[i], a.others(i), b.others(j))
+                && faces_at_vertex_intersect(a, b, i, j)
         }
         _ => {
-            let (ca, cb) = (a.corners, b.corners);
             // The first corner p of a such that p and its successor q are shared; r is a's
             // third corner, s the corner of b off the edge pq (for a duplicate face, the one
             // at r's vertex: the same point).
@@ -174,26 +180,79 @@ fn faces_intersect(a: &Face, b: &Face) -> bool {
                 0b101 => 2,
                 _ => 0,
             };
-            let (q, r) = ((p + 1) % 3, (p + 2) % 3);
+            let [q, r] = OTHERS[p];
+            let (ca, cb) = (&a.corners, &b.corners);
             let s = match (!in_a & 0b111).trailing_zeros() as usize {
                 k @ 0..=2 => cb[k],
                 _ => ca[r],
             };
             // Intersecting iff the triangles fold onto each other: s coplanar with a (whose
             // corners p, q, r are, in rotated order) and strictly on the same side of pq as r.
-            a.plane().side(s) == Sign::Zero
-                && coplanar_orientation(ca[p], ca[q], ca[r], s) == Sign::Positive
+            // The filter first: on a surface, s is clearly off a's plane.
+            let (u, w, d) = (ca[q] - ca[p], ca[r] - ca[p], s - ca[p]);
+            let m = u.abs().max(w.abs()).max(d.abs()).max_element();
+            u.cross(w).dot(d).abs() <= orient3d_bound_for_differences_up_to(m)
+                && folded_onto([ca[p], ca[q], ca[r]], s)
         }
     }
 }
 
-/// Whether the edge of `face` opposite its corner `k` misses the triangle of `plane`, which
-/// shares that corner's vertex. Both endpoints strictly on one side of the plane (the common
-/// case, decided by the plane's filtered side test) settle it at once.
-#[inline]
-fn opposite_edge_misses(face: &Face, k: usize, plane: &Plane) -> bool {
-    let c = face.corners;
-    let edge = [c[(k + 1) % 3], c[(k + 2) % 3]];
+/// Two faces without a shared vertex: whether the closed triangles meet.
+#[inline(never)]
+fn unconnected_faces_intersect(a: &Face, b: &Face) -> bool {
+    prepared_triangles_intersect(&a.plane(), &b.plane())
+}
+
+/// Two faces sharing only corner `i` of `a`, corner `j` of `b`: whether the edge of either
+/// opposite the shared corner meets the other face.
+#[cold]
+#[inline(never)]
+fn faces_at_vertex_intersect(a: &Face, b: &Face, i: usize, j: usize) -> bool {
+    let (v, [a1, a2], [b1, b2]) = (a.corners[i], a.others(i), b.others(j));
+    // Both planes are taken from the shared corner; a rotation keeps the orientation.
+    let (pa, pb) = (Plane::new(v, a1, a2), Plane::new(v, b1, b2));
+    !edge_misses([b1, b2], &pa) || !edge_misses([a1, a2], &pb)
+}
+
+/// Whether `s`, the far corner of a face sharing the edge pq with the triangle `[p, q, r]`, is
+/// coplanar with it and strictly on r's side of pq.
+#[cold]
+#[inline(never)]
+fn folded_onto([p, q, r]: [DVec3; 3], s: DVec3) -> bool {
+    Plane::new(p, q, r).side(s) == Sign::Zero && coplanar_orientation(p, q, r, s) == Sign::Positive
+}
+
+/// Whether, for two triangles sharing the corner `v`, each one's opposite edge is provably
+/// strictly on one side of the other's plane, so that they meet only at `v`: the common case
+/// of neighbours on a smooth surface. The four side determinants are differences from `v` and
+/// are checked against one error bound for all (`orient3d_bound_for_differences_up_to`), which
+/// decides them all unless some point is nearly coplanar with the other triangle; `false`
+/// leaves the pair to the exact tests.
+#[inline(always)]
+fn opposite_edges_clear(v: DVec3, a: [DVec3; 2], b: [DVec3; 2]) -> bool {
+    let (u, w, d1, d2) = (a[0] - v, a[1] - v, b[0] - v, b[1] - v);
+    let (na, nb) = (u.cross(w), d1.cross(d2));
+    let sides = DVec4::new(na.dot(d1), na.dot(d2), nb.dot(u), nb.dot(w));
+    let m = u
+        .abs()
+        .max(w.abs())
+        .max(d1.abs())
+        .max(d2.abs())
+        .max_element();
+    let bound = orient3d_bound_for_differences_up_to(m);
+    sides.abs().cmpgt(DVec4::splat(bound)).all()
+        && sides.x * sides.y > 0.0
+        && sides.z * sides.w > 0.0
+}
+
+/// For each corner of a triangle, the two others in winding order.
+const OTHERS: [[usize; 2]; 3] = [[1, 2], [2, 0], [0, 1]];
+
+/// Whether the segment `edge` misses the triangle of `plane`, which shares a vertex with the
+/// segment's triangle. Both endpoints strictly on one side of the plane (the common case,
+/// decided by the plane's filtered side test) settle it at once.
+#[inline(always)]
+fn edge_misses(edge: [DVec3; 2], plane: &Plane) -> bool {
     let (s0, s1) = (plane.side(edge[0]), plane.side(edge[1]));
     (s0 == s1 && s0 != Sign::Zero) || !segment_meets_prepared(edge, plane)
 }
