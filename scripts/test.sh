@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Every test of the project, on a fresh machine: installs what it needs (Debian packages when
-# run as root, a Python venv in .venv), then lint, Rust tests, benchmark builds, and the peer
-# comparisons against VTK and CGAL.
+# run as root, a Python venv in .venv), then lint, Rust tests, the C ABI under sanitizers, the
+# CMake package with its C++ tests, benchmark builds, the peer comparisons against VTK, CGAL and
+# libigl, and the Python package.
 #
 # Real scans are read from $BALLOONSEG_DATA (default: ../shared/data). When they are absent the
 # tests that need them say SKIPPED loudly; with CI=true they fail instead.
@@ -40,9 +41,20 @@ cargo clippy --all-targets --all-features --locked -- -D warnings
 step "Rust tests"
 cargo test --all-features --locked --release
 
+step "C ABI: C and C++ tests under AddressSanitizer and valgrind"
+bash scripts/test_c_api.sh
+
+step "CMake package, VTK filter, C++ tests against VTK, CGAL and OpenMesh"
+bash scripts/test_cmake.sh
+
 step "benchmarks compile"
 cargo bench --all-features --locked --no-run
 
 step "peer comparisons (VTK, CGAL, libigl)"
 cargo build --release --all-features --locked --bins --examples
 .venv/bin/python -m pytest -q tests/peers
+
+step "Python package (ctypes, numpy, VTK filter)"
+cargo build --release --lib --locked
+.venv/bin/python -m pip install -q --disable-pip-version-check -e 'python_ctypes[vtk]'
+.venv/bin/python -m pytest -q -rs python_ctypes/tests

@@ -332,8 +332,10 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         Ok(())
     }
 
-    /// Freezes the vertices of every triangle that intersects another (paper, section 3);
-    /// returns how many vertices were newly frozen.
+    /// Freezes the vertices of every triangle that intersects another (paper, section 3), and
+    /// the rest of each moving front that touched the balloon (frozen at the border, so that it
+    /// does not grow on inside the balloon's own interior until re-parametrisation merges the
+    /// lobes); returns how many vertices were newly frozen.
     pub fn freeze_self_intersections(&mut self) -> Result<usize> {
         let start = Instant::now();
         self.surface.compact();

@@ -200,8 +200,10 @@ pub unsafe extern "C" fn balloon_step(
     })
 }
 
-/// Freezes the vertices of every self-intersecting triangle; `*frozen_vertices_out` receives
-/// how many were newly frozen.
+/// Freezes the vertices of every self-intersecting triangle (state
+/// `BALLOON_VERTEX_FROZEN_BY_SELF_INTERSECTION`) and the rest of each moving front that touched
+/// the balloon (`BALLOON_VERTEX_FROZEN_AT_BORDER`, until `balloon_reparametrize` merges the
+/// lobes); `*frozen_vertices_out` receives how many were newly frozen.
 ///
 /// # Safety
 /// `s` is a live handle; `frozen_vertices_out` is writable.
