@@ -82,6 +82,9 @@ static void test_init_errors(void) {
   wrong.max_iterations = 0;
   EXPECT_ERROR(balloon_init(&good, &wrong, seed, &s), BALLOON_INVALID_ARGUMENT, "max_iterations");
   wrong = p;
+  wrong.threads = 4000000000u;
+  EXPECT_ERROR(balloon_init(&good, &wrong, seed, &s), BALLOON_INVALID_ARGUMENT, "threads");
+  wrong = p;
   wrong.tolerance = -1;
   EXPECT_ERROR(balloon_init(&good, &wrong, seed, &s), BALLOON_INVALID_ARGUMENT, "tolerance");
 
@@ -345,6 +348,8 @@ static void test_marching_cubes(void) {
   EXPECT_ERROR(balloon_marching_cubes(NULL, 100.0, 1, &mesh), BALLOON_NULL_POINTER, "volume");
   EXPECT_ERROR(balloon_marching_cubes(&v, 100.0, 1, NULL), BALLOON_NULL_POINTER, "out");
   EXPECT_ERROR(balloon_marching_cubes(&v, NAN, 1, &mesh), BALLOON_INVALID_ARGUMENT, "level");
+  EXPECT_ERROR(balloon_marching_cubes(&v, 100.0, 4000000000u, &mesh), BALLOON_INVALID_ARGUMENT,
+               "threads");
   BalloonVolume bad = v;
   bad.dims[2] = 0;
   EXPECT_ERROR(balloon_marching_cubes(&bad, 100.0, 1, &mesh), BALLOON_INVALID_VOLUME, "dims");

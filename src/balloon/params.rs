@@ -51,6 +51,10 @@ impl Default for BalloonParams {
     }
 }
 
+/// More workers than this is a mistake (each is an OS thread with its own stack), not a request
+/// to honour: it would exhaust memory before it sped anything up.
+pub const MAX_THREADS: usize = 1024;
+
 fn finite_positive(name: &str, value: f64, hint: &str) -> Result<()> {
     if value.is_finite() && value > 0.0 {
         Ok(())
@@ -117,6 +121,12 @@ impl BalloonParams {
                 self.max_vertices
             )));
         }
+        if self.threads > MAX_THREADS {
+            return Err(Error::invalid_argument(format!(
+                "threads is {}; give 0 for all cores or at most {MAX_THREADS} worker threads",
+                self.threads
+            )));
+        }
         Ok(())
     }
 }
@@ -160,6 +170,11 @@ mod tests {
             ..d()
         })
         .contains("max_vertices"));
+        assert!(bad(BalloonParams {
+            threads: 1_000_000,
+            ..d()
+        })
+        .contains("threads"));
         let weights = ForceWeights {
             bending: f64::INFINITY,
             ..ForceWeights::default()
