@@ -10,6 +10,7 @@ use std::hint::black_box;
 
 use balloonseg::balloon::{BalloonParams, Segmenter};
 use balloonseg::phantom::{self, PhantomOptions, Shape};
+use balloonseg::test_data::data_dir;
 use balloonseg::{io, Image};
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use glam::DVec3;
@@ -25,14 +26,7 @@ struct Case {
 }
 
 fn real_case(name: &'static str, file: &str, seed: [f64; 3]) -> Option<Case> {
-    let dir = std::env::var_os("BALLOONSEG_DATA")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| concat!(env!("CARGO_MANIFEST_DIR"), "/../shared/data").into());
-    let path = dir.join(file);
-    if !path.exists() {
-        eprintln!("*** SKIPPED: {name} bench needs {}", path.display());
-        return None;
-    }
+    let path = data_dir()?.join(file);
     Some(Case {
         name,
         image: io::read_image(&path).expect("readable scan"),

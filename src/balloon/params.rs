@@ -53,7 +53,7 @@ impl Default for BalloonParams {
 
 /// More workers than this is a mistake (each is an OS thread with its own stack), not a request
 /// to honour: it would exhaust memory before it sped anything up.
-pub const MAX_THREADS: usize = 1024;
+const MAX_THREADS: usize = 1024;
 
 fn finite_positive(name: &str, value: f64, hint: &str) -> Result<()> {
     if value.is_finite() && value > 0.0 {
@@ -121,14 +121,19 @@ impl BalloonParams {
                 self.max_vertices
             )));
         }
-        if self.threads > MAX_THREADS {
-            return Err(Error::invalid_argument(format!(
-                "threads is {}; give 0 for all cores or at most {MAX_THREADS} worker threads",
-                self.threads
-            )));
-        }
-        Ok(())
+        check_threads(self.threads)
     }
+}
+
+/// A worker-thread count for a pool of its own (0 = all cores): more than `MAX_THREADS` is a
+/// mistake, refused before any thread starts.
+pub fn check_threads(threads: usize) -> Result<()> {
+    if threads > MAX_THREADS {
+        return Err(Error::invalid_argument(format!(
+            "threads is {threads}; give 0 for all cores or at most {MAX_THREADS} worker threads"
+        )));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@ use super::mesh::{mesh_from_c, BalloonMesh, FlatMesh};
 use super::params::check_struct_size;
 use super::status::BalloonStatus;
 use super::volume::{volume_from_c, BalloonVolume};
-use crate::balloon::params::MAX_THREADS;
+use crate::balloon::params::check_threads;
 use crate::error::Error;
 use crate::marching_cubes::marching_cubes;
 use crate::mesh_checks;
@@ -62,12 +62,7 @@ pub unsafe extern "C" fn balloon_marching_cubes(
         require(out, "out")?;
         // SAFETY: by the caller's promise.
         let volume = unsafe { volume_from_c(volume)? };
-        if threads as usize > MAX_THREADS {
-            return Err(Error::invalid_argument(format!(
-                "threads is {threads}; give 0 for all cores or at most {MAX_THREADS}"
-            ))
-            .into());
-        }
+        check_threads(threads as usize)?;
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads as usize)
             .build()
