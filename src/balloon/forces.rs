@@ -18,12 +18,14 @@
 //!   stalls before it; beyond the tolerance the sign reverses (the paper's containing force).
 //!   The integrator freezes a vertex on the exact border crossing.
 //!
-//! Elastic and bending terms are accumulated over the edges sequentially, in slot order, so
-//! the sums are the same whatever the thread count; the per-vertex parts run in parallel.
+//! Elastic and bending terms are accumulated over the front's edges sequentially, in slot
+//! order, so the sums are the same whatever the thread count; the per-vertex parts run in
+//! parallel.
 
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::front::Front;
 use super::surface::Surface;
 
 /// Relative weights of the three forces.
@@ -68,29 +70,49 @@ impl IntensityWindow {
     }
 }
 
-/// Elastic (tangential umbrella) plus bending forces of every moving vertex, by slot, in units
-/// of the edge length `scale` (frozen vertices get meaningless values). `normals` are the unit
-/// vertex normals by slot.
-pub fn internal_forces(
+/// Per-vertex sums reused from step to step, by vertex slot; only the entries the front
+/// reaches are cleared and filled, so a step does not touch the frozen rest of the balloon.
+#[derive(Debug, Default)]
+pub(crate) struct ForceScratch {
+    neighbour_sum: Vec<DVec3>,
+    valence: Vec<u32>,
+    bending: Vec<DVec3>,
+}
+
+/// Elastic (tangential umbrella) plus bending forces of the front's moving vertices, in units
+/// of the edge length `scale`: `forces[i]` is the force on `front.vertices[i]`. `normals` are
+/// the unit vertex normals by slot (at least of the moving vertices).
+pub(crate) fn internal_forces(
     surface: &Surface,
+    front: &Front,
     normals: &[DVec3],
     weights: &ForceWeights,
     scale: f64,
+    scratch: &mut ForceScratch,
     forces: &mut Vec<DVec3>,
 ) {
     let slots = surface.vertex_slots();
     let positions = surface.positions();
-    let states = surface.states();
-    let mut neighbour_sum = vec![DVec3::ZERO; slots];
-    let mut valence = vec![0u32; slots];
-    let mut bending = vec![DVec3::ZERO; slots];
-    for e in surface.edges() {
-        let [a, b, c, d] = [e.a, e.b, e.c, e.d].map(|v| v as usize);
-        // Only moving vertices use their forces: an edge among frozen vertices is skipped, so
-        // the work follows the moving front rather than the whole balloon.
-        if [a, b, c, d].iter().all(|&v| states[v].is_frozen()) {
-            continue;
+    let ForceScratch {
+        neighbour_sum,
+        valence,
+        bending,
+    } = scratch;
+    neighbour_sum.resize(slots, DVec3::ZERO);
+    valence.resize(slots, 0);
+    bending.resize(slots, DVec3::ZERO);
+    let edges = || front.edges.iter().map(|&h| surface.edge(h));
+    for e in edges() {
+        for v in [e.a, e.b, e.c, e.d] {
+            neighbour_sum[v as usize] = DVec3::ZERO;
+            valence[v as usize] = 0;
+            bending[v as usize] = DVec3::ZERO;
         }
+    }
+    // The front's edges are every edge with a moving end or opposite vertex, so the sums of
+    // the moving vertices are complete.
+    for e in edges() {
+        let [a, b, c, d] = [e.a, e.b, e.c, e.d].map(|v| v as usize);
         neighbour_sum[a] += positions[b];
         neighbour_sum[b] += positions[a];
         valence[a] += 1;
@@ -106,21 +128,19 @@ pub fn internal_forces(
         bending[a] -= 0.5 * (push_c + push_d);
         bending[b] -= 0.5 * (push_c + push_d);
     }
-    forces.clear();
-    forces.resize(slots, DVec3::ZERO);
-    forces
-        .par_iter_mut()
-        .enumerate()
+    let (neighbour_sum, valence, bending) = (&*neighbour_sum, &*valence, &*bending);
+    front
+        .vertices
+        .par_iter()
         .with_min_len(1024)
-        .for_each(|(v, f)| {
-            if valence[v] == 0 {
-                return;
-            }
+        .map(|&v| {
+            let v = v as usize;
             let umbrella = neighbour_sum[v] / valence[v] as f64 - positions[v];
             let n = normals[v];
             let tangential = umbrella - n * umbrella.dot(n);
-            *f = weights.elastic * tangential / scale + weights.bending * bending[v];
-        });
+            weights.elastic * tangential / scale + weights.bending * bending[v]
+        })
+        .collect_into_vec(forces);
 }
 
 /// Signed angle between the normals of two triangles sharing an edge, given the vector from the
@@ -140,6 +160,48 @@ fn dihedral(n1: DVec3, n2: DVec3, to_c: DVec3) -> f64 {
 mod tests {
     use super::*;
 
+    /// The internal forces of a surface whose vertices all move, by slot.
+    fn forces(s: &Surface, normals: &[DVec3]) -> Vec<DVec3> {
+        let front = Front::of(s);
+        assert_eq!(front.vertices.len(), s.vertex_slots());
+        let mut f = Vec::new();
+        let weights = ForceWeights::default();
+        internal_forces(
+            s,
+            &front,
+            normals,
+            &weights,
+            1.0,
+            &mut ForceScratch::default(),
+            &mut f,
+        );
+        f
+    }
+
+    #[test]
+    fn forces_on_a_front_equal_those_on_the_whole_surface() {
+        // Freezing a cap must not change the forces on the vertices that still move.
+        let mut s = Surface::icosphere(DVec3::ZERO, 5.0, 3).unwrap();
+        s.positions_mut()[7] *= 1.2;
+        let normals = s.vertex_normals();
+        let all = forces(&s, &normals);
+        for v in 0..s.vertex_slots() {
+            if s.positions()[v].z < 1.0 {
+                s.states_mut()[v] = super::super::surface::VertexState::FrozenAtBorder;
+            }
+        }
+        let front = Front::of(&s);
+        let mut f = Vec::new();
+        let weights = ForceWeights::default();
+        let mut scratch = ForceScratch::default();
+        for _ in 0..2 {
+            internal_forces(&s, &front, &normals, &weights, 1.0, &mut scratch, &mut f);
+            for (i, &v) in front.vertices.iter().enumerate() {
+                assert_eq!(f[i], all[v as usize], "vertex {v}");
+            }
+        }
+    }
+
     #[test]
     fn inflation_slows_towards_the_border_and_reverses_beyond() {
         let w = IntensityWindow {
@@ -157,8 +219,7 @@ mod tests {
     fn a_sphere_feels_no_net_bending_and_no_elastic_shrinking() {
         let s = Surface::icosphere(DVec3::ZERO, 5.0, 3).unwrap();
         let normals = s.vertex_normals();
-        let mut f = Vec::new();
-        internal_forces(&s, &normals, &ForceWeights::default(), 1.0, &mut f);
+        let f = forces(&s, &normals);
         let normal_parts: Vec<f64> = s
             .live_vertices()
             .map(|v| f[v as usize].dot(normals[v as usize]))
@@ -178,24 +239,11 @@ mod tests {
         let v = 0usize;
         let out = s.positions()[v].normalize();
         s.positions_mut()[v] += out * 1.5;
-        let mut f = Vec::new();
-        internal_forces(
-            &s,
-            &s.vertex_normals(),
-            &ForceWeights::default(),
-            1.0,
-            &mut f,
-        );
+        let f = forces(&s, &s.vertex_normals());
         assert!(f[v].dot(out) < -0.1, "spike: {}", f[v].dot(out));
 
         s.positions_mut()[v] -= out * 3.0;
-        internal_forces(
-            &s,
-            &s.vertex_normals(),
-            &ForceWeights::default(),
-            1.0,
-            &mut f,
-        );
+        let f = forces(&s, &s.vertex_normals());
         assert!(f[v].dot(out) > 0.1, "dent: {}", f[v].dot(out));
     }
 

@@ -14,7 +14,8 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::forces::{internal_forces, ForceWeights, IntensityWindow};
+use super::forces::{internal_forces, ForceScratch, ForceWeights, IntensityWindow};
+use super::front::Front;
 use super::surface::{Surface, VertexState};
 use crate::volume::Volume;
 
@@ -30,7 +31,9 @@ pub(crate) struct Stepper<'a, 'v> {
 /// Buffers reused from step to step.
 #[derive(Default)]
 pub(crate) struct Scratch {
+    front: Front,
     normals: Vec<DVec3>,
+    sums: ForceScratch,
     forces: Vec<DVec3>,
 }
 
@@ -48,37 +51,41 @@ pub(crate) struct StepReport {
 const BISECTIONS: u32 = 16;
 
 impl Stepper<'_, '_> {
-    /// Moves every moving vertex once.
+    /// Moves every moving vertex once; the work is on the moving front only.
     pub fn step(&self, surface: &mut Surface, scratch: &mut Scratch) -> StepReport {
-        surface.moving_vertex_normals_into(&mut scratch.normals);
+        let Scratch {
+            front,
+            normals,
+            sums,
+            forces,
+        } = scratch;
+        front.update(surface);
+        surface.front_vertex_normals_into(front, normals);
         internal_forces(
             surface,
-            &scratch.normals,
+            front,
+            normals,
             &self.weights,
             self.edge_length,
-            &mut scratch.forces,
+            sums,
+            forces,
         );
-        let (normals, forces) = (&scratch.normals, &scratch.forces);
         let positions = surface.positions();
-        let states = surface.states();
-        let updates: Vec<Option<(DVec3, VertexState)>> = (0..surface.vertex_slots())
-            .into_par_iter()
+        let updates: Vec<(DVec3, VertexState)> = front
+            .vertices
+            .par_iter()
+            .zip(forces.par_iter())
             .with_min_len(256)
-            .map(|v| {
-                let live = surface.is_vertex_live(v as u32);
-                (live && states[v] == VertexState::Moving)
-                    .then(|| self.move_vertex(positions[v], normals[v], forces[v]))
-            })
+            .map(|(&v, &force)| self.move_vertex(positions[v as usize], normals[v as usize], force))
             .collect();
         let mut report = StepReport::default();
         let (positions, states) = surface.positions_and_states_mut();
-        for (v, update) in updates.into_iter().enumerate() {
-            if let Some((p, state)) = update {
-                report.largest_move = report.largest_move.max((p - positions[v]).length());
-                positions[v] = p;
-                states[v] = state;
-                report.moving += usize::from(state == VertexState::Moving);
-            }
+        for (&v, (p, state)) in front.vertices.iter().zip(updates) {
+            let v = v as usize;
+            report.largest_move = report.largest_move.max((p - positions[v]).length());
+            positions[v] = p;
+            states[v] = state;
+            report.moving += usize::from(state == VertexState::Moving);
         }
         report
     }

@@ -11,12 +11,13 @@
 //! heap operation. Ties are broken by vertex ids: the result depends only on the input.
 
 use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+use std::collections::{BinaryHeap, HashMap};
 use std::fmt;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::front::Front;
 use super::surface::{next, prev, Surface, VertexState, MAX_TRIANGLES, NONE};
 use crate::error::{Error, Result};
 
@@ -115,9 +116,10 @@ fn folds(old: DVec3, p: DVec3, q: DVec3, r: DVec3) -> bool {
 }
 
 impl Surface {
-    /// Splits every edge longer than `max_length` at its midpoint, longest first, until none
-    /// is longer (Rivara's longest-edge bisection terminates because each split halves an
-    /// edge). Both triangles of a split edge become two. The new vertex is appended and is
+    /// Splits every edge of the moving front (`Front`: the edges with a moving end or
+    /// opposite vertex; frozen parts keep their triangles) longer than `max_length` at its
+    /// midpoint, longest first, until none is longer (Rivara's longest-edge bisection
+    /// terminates because each split halves an edge). Both triangles of a split edge become two. The new vertex is appended and is
     /// `Moving` unless both ends are frozen; then it takes the later of their states in
     /// [`VertexState`] order (self-intersection wins over border), because a point between two
     /// frozen vertices lies where they stopped. Returns the number of splits (= new vertices).
@@ -141,8 +143,13 @@ impl Surface {
             };
             let m = self.split_half_edge(h)?;
             splits += 1;
+            // Every edge of the four triangles around `m`, also those outside the front: a
+            // long edge next to a split must be split too, or bisecting its neighbours would
+            // go on making slivers against it (longest-edge bisection ends because each
+            // triangle's longest edge is split).
             for h in self.outgoing_half_edges(m) {
                 queue.extend(self.candidate(h, &select));
+                queue.extend(self.candidate(next(h), &select));
             }
         }
         Ok(splits)
@@ -157,7 +164,8 @@ impl Surface {
         self.split_half_edge(h)
     }
 
-    /// Collapses edges shorter than `min_length`, shortest first, each into one vertex, when
+    /// Collapses edges of the moving front shorter than `min_length`, shortest first, each
+    /// into one vertex, when
     /// the result stays a closed 2-manifold that is geometrically sound:
     /// - the ends' common neighbours are exactly the two opposite vertices (link condition),
     ///   and no vertex keeps fewer than three neighbours (so a tetrahedron is never collapsed);
@@ -220,19 +228,21 @@ impl Surface {
             })
     }
 
-    /// One pass over the edges in slot order, flipping each edge whose flip brings the
+    /// One pass over the moving front's edges in slot order, flipping each edge whose flip
+    /// brings the
     /// valences of its four vertices closer to 6 (sum of squared deviations strictly
     /// decreases), as long as the two new triangles are not degenerate and both stay within
     /// 90° of both old ones, the new diagonal is not already an edge and no vertex drops below
     /// three neighbours. Edges whose four vertices are all frozen are left as they are. Flips
     /// keep every vertex but change triangle corners. Returns the number of flips.
     pub fn flip_edges_for_valence(&mut self) -> usize {
-        let mut valence: Vec<i64> = (0..self.vertex_slots() as u32)
-            .into_par_iter()
-            .map(|v| self.valence(v) as i64)
-            .collect();
+        let front = Front::of(self);
+        // Valences of the quads' corners, counted when first needed and kept up to date.
+        let mut valence: HashMap<u32, i64> = HashMap::new();
         let mut flips = 0;
-        for h in 0..self.twins.len() as u32 {
+        for h in front.edges {
+            // An earlier flip may have turned this slot into another edge, or frozen all of
+            // its quad's corners; the check below skips the latter.
             if !self.represents_edge(h) {
                 continue;
             }
@@ -243,32 +253,30 @@ impl Surface {
                 self.opposite(h),
                 self.opposite(g),
             ];
-            let [a, b, c, d] = quad.map(|v| v as usize);
-            // Frozen parts of the balloon keep their triangles: they no longer move, and the
-            // pass then costs little beyond the moving front.
-            if [a, b, c, d].iter().all(|&v| self.states[v].is_frozen()) {
+            // Frozen parts of the balloon keep their triangles: they no longer move.
+            if quad.iter().all(|&v| self.states[v as usize].is_frozen()) {
                 continue;
             }
+            let counts = quad.map(|v| *valence.entry(v).or_insert_with(|| self.valence(v) as i64));
             let deviation = |shift: [i64; 4]| -> i64 {
-                [a, b, c, d]
+                counts
                     .iter()
                     .zip(shift)
-                    .map(|(&v, s)| (valence[v] + s - 6).pow(2))
+                    .map(|(&n, s)| (n + s - 6).pow(2))
                     .sum()
             };
             if deviation([-1, -1, 1, 1]) >= deviation([0; 4])
-                || valence[a] <= 3
-                || valence[b] <= 3
+                || counts[0] <= 3
+                || counts[1] <= 3
                 || self.half_edge(quad[2], quad[3]).is_some()
                 || !self.flip_keeps_shape(quad)
             {
                 continue;
             }
             self.flip_half_edge(h);
-            valence[a] -= 1;
-            valence[b] -= 1;
-            valence[c] += 1;
-            valence[d] += 1;
+            for (v, shift) in quad.into_iter().zip([-1, -1, 1, 1]) {
+                *valence.get_mut(&v).expect("counted above") += shift;
+            }
             flips += 1;
         }
         flips
@@ -286,11 +294,12 @@ impl Surface {
         })
     }
 
-    /// The entries of every live edge that `select` takes, in half-edge order.
+    /// The entries of the moving front's edges that `select` takes, in half-edge order. The
+    /// edges of the frozen rest no longer change length.
     fn edge_candidates(&self, select: &(impl Fn(f64) -> Option<u64> + Sync)) -> Vec<Candidate> {
-        (0..self.twins.len() as u32)
+        Front::of(self)
+            .edges
             .into_par_iter()
-            .filter(|&h| self.represents_edge(h))
             .filter_map(|h| self.candidate(h, select))
             .collect()
     }
@@ -972,6 +981,22 @@ mod tests {
             random_session(8, start, 2),
             "the sessions must differ to mean anything"
         );
+    }
+
+    #[test]
+    fn splits_next_to_long_frozen_edges_terminate() {
+        // One moving vertex in a frozen sphere whose edges are all too long: bisecting only the
+        // front's edges would make slivers against the frozen ones for ever.
+        let mut s = Surface::icosphere(DVec3::ZERO, 3.0, 2).unwrap();
+        s.states_mut().fill(VertexState::FrozenAtBorder);
+        s.states_mut()[0] = VertexState::Moving;
+        let max = 0.3 * mean_edge_length(&s);
+        let splits = s.split_long_edges(max).unwrap();
+        assert!(splits > 0);
+        assert_valid(&s, 2);
+        assert!(s
+            .outgoing_half_edges(0)
+            .all(|h| s.positions()[0].distance(s.positions()[s.dest(h) as usize]) <= max));
     }
 
     #[test]

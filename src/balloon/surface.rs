@@ -17,6 +17,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::front::Front;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::mesh_checks;
@@ -380,12 +381,17 @@ impl Surface {
     pub fn edges(&self) -> impl Iterator<Item = Edge> + '_ {
         (0..self.twins.len() as u32)
             .filter(|&h| self.represents_edge(h))
-            .map(|h| Edge {
-                a: self.origin(h),
-                b: self.dest(h),
-                c: self.opposite(h),
-                d: self.opposite(self.twins[h as usize]),
-            })
+            .map(|h| self.edge(h))
+    }
+
+    /// The edge of the live half-edge `h`, running `a → b` along `h`.
+    pub fn edge(&self, h: u32) -> Edge {
+        Edge {
+            a: self.origin(h),
+            b: self.dest(h),
+            c: self.opposite(h),
+            d: self.opposite(self.twins[h as usize]),
+        }
     }
 
     /// Unit vertex normals by slot, area-weighted: the normalised sum of the incident triangles'
@@ -402,31 +408,38 @@ impl Surface {
 
     /// [`Surface::vertex_normals`] into a reused buffer.
     pub fn vertex_normals_into(&self, normals: &mut Vec<DVec3>) {
-        self.normals_into(normals, false);
-    }
-
-    /// [`Surface::vertex_normals`] of the moving vertices, into a reused buffer; frozen
-    /// vertices whose triangles are all frozen get zero, so the work follows the moving front.
-    pub fn moving_vertex_normals_into(&self, normals: &mut Vec<DVec3>) {
-        self.normals_into(normals, true);
-    }
-
-    fn normals_into(&self, normals: &mut Vec<DVec3>, only_moving: bool) {
         normals.clear();
         normals.resize(self.positions.len(), DVec3::ZERO);
         for (_, tri) in self.triangles() {
-            if only_moving && tri.iter().all(|&v| self.states[v as usize].is_frozen()) {
-                continue;
-            }
-            let [a, b, c] = tri.map(|v| self.positions[v as usize]);
-            let n = (b - a).cross(c - a);
-            for v in tri {
-                normals[v as usize] += n;
-            }
+            self.add_triangle_normal(tri, normals);
         }
         normals
             .par_iter_mut()
             .for_each(|n| *n = n.normalize_or_zero());
+    }
+
+    /// [`Surface::vertex_normals`] of the front's moving vertices, into a buffer by slot
+    /// reused from step to step; the entries of other vertices are meaningless, and only
+    /// those the front reaches are written, so the work follows the moving front.
+    pub(crate) fn front_vertex_normals_into(&self, front: &Front, normals: &mut Vec<DVec3>) {
+        normals.resize(self.positions.len(), DVec3::ZERO);
+        for v in front.reached_vertices(self) {
+            normals[v as usize] = DVec3::ZERO;
+        }
+        for &t in &front.triangles {
+            self.add_triangle_normal(self.triangles[t as usize], normals);
+        }
+        for &v in &front.vertices {
+            normals[v as usize] = normals[v as usize].normalize_or_zero();
+        }
+    }
+
+    fn add_triangle_normal(&self, tri: [u32; 3], normals: &mut [DVec3]) {
+        let [a, b, c] = tri.map(|v| self.positions[v as usize]);
+        let n = (b - a).cross(c - a);
+        for v in tri {
+            normals[v as usize] += n;
+        }
     }
 
     /// Unit triangle normals by slot (zero for deleted or degenerate triangles).
@@ -553,6 +566,12 @@ impl Surface {
     pub(super) fn represents_edge(&self, h: u32) -> bool {
         let g = self.twins[h as usize];
         g != NONE && h < g
+    }
+
+    /// The half-edge of the twin pair of the live half-edge `h` that stands for their edge.
+    #[inline]
+    pub(super) fn edge_representative(&self, h: u32) -> u32 {
+        h.min(self.twins[h as usize])
     }
 
     /// The half-edges leaving `v`, counter-clockwise seen from outside.

@@ -1,0 +1,126 @@
+//! The balloon on the real scans (`BALLOONSEG_DATA`), scored as `tests/real_scans.rs` scores it:
+//! for the aorta, Dice, mean symmetric surface distance and HD95 against vmtk's reference inside
+//! its rows y = 89…176; for both, validity, components, genus, steps and seconds.
+//!
+//! `score_real_scans [aorta|carotid|both] [--reference R] [--tolerance T] [--threads N]
+//! [--save DIR]` prints one JSON line per scan (and with `--save`, writes `DIR/aorta.vtp`,
+//! `DIR/carotid.vtp`); for trying parameters and estimators against the numbers BENCHMARKS.md
+//! quotes.
+
+use std::time::Instant;
+
+use balloonseg::balloon::{BalloonParams, Segmenter};
+use balloonseg::evaluation::{overlap_with_level_set, symmetric_distances, IndexBox};
+use balloonseg::marching_cubes::marching_cubes;
+use balloonseg::test_data::data_dir;
+use balloonseg::{io, mesh_checks, Error, Result};
+use glam::DVec3;
+
+fn main() {
+    if let Err(e) = run() {
+        eprintln!("score_real_scans: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run() -> Result<()> {
+    let mut args = std::env::args().skip(1);
+    let mut which = "both".to_string();
+    let mut params = BalloonParams::default();
+    let mut save = None;
+    while let Some(arg) = args.next() {
+        let mut value = |name: &str| -> Result<f64> {
+            args.next()
+                .and_then(|v| v.parse().ok())
+                .ok_or_else(|| Error::invalid_argument(format!("{name} needs a number")))
+        };
+        match arg.as_str() {
+            "--reference" => params.reference = Some(value("--reference")?),
+            "--tolerance" => params.tolerance = Some(value("--tolerance")?),
+            "--threads" => params.threads = value("--threads")? as usize,
+            "--max-reparametrizations" => {
+                params.max_reparametrizations = value("--max-reparametrizations")? as u32
+            }
+            "--save" => save = args.next().map(std::path::PathBuf::from),
+            "aorta" | "carotid" | "both" => which = arg,
+            other => {
+                return Err(Error::invalid_argument(format!(
+                    "unknown argument {other}; usage: score_real_scans [aorta|carotid|both] \
+                     [--reference R] [--tolerance T] [--threads N] [--save DIR]"
+                )))
+            }
+        }
+    }
+    let dir = data_dir().ok_or_else(|| Error::invalid_argument("no BALLOONSEG_DATA"))?;
+    if which != "carotid" {
+        let image = io::read_image(&dir.join("vmtk-aorta/aorta.mha"))?;
+        let seed = DVec3::new(-221.484, -156.445, 22.501);
+        let start = Instant::now();
+        let mut segmenter = Segmenter::new(image.view(), params.clone(), seed)?;
+        let (mesh, _) = segmenter.segment()?;
+        let seconds = start.elapsed().as_secs_f64();
+        if let Some(dir) = &save {
+            io::write_mesh(&dir.join("aorta.vtp"), &mesh, &[])?;
+        }
+        let level_set = io::read_image(&dir.join("vmtk-aorta/aorta-reference-levelset.mha"))?;
+        let region = IndexBox {
+            lo: [0, 89, 0],
+            hi: [level_set.dims()[0] - 1, 176, level_set.dims()[2] - 1],
+        };
+        let overlap = overlap_with_level_set(&mesh, &level_set.view(), region, 3)?;
+        let reference = marching_cubes(&level_set.view(), 0.0)?;
+        let geometry = *level_set.geometry();
+        let distances = symmetric_distances(&mesh, &reference, |p| {
+            region.contains(geometry.world_to_index(p))
+        })?;
+        let report = mesh_checks::check(&mesh);
+        let stats = segmenter.stats();
+        println!(
+            "{{\"scan\": \"aorta\", \"valid\": {}, \"components\": {}, \"genus\": {:?}, \
+             \"dice\": {:.4}, \"mssd_mm\": {:.3}, \"hd95_mm\": {:.3}, \"volume_mm3\": {:.0}, \
+             \"reference_volume_mm3\": {:.0}, \"reference\": {:.1}, \"tolerance\": {:.1}, \
+             \"steps\": {}, \"reparametrizations\": {}, \"seconds\": {:.3}, \"phases\": \"{:.3?}\"}}",
+            report.is_valid_closed_surface(),
+            report.components,
+            report.genus(),
+            overlap.dice(),
+            distances.mean(),
+            distances.hd95(),
+            overlap.mesh,
+            overlap.truth,
+            stats.reference_intensity,
+            stats.tolerance,
+            stats.iterations,
+            stats.reparametrizations,
+            seconds,
+            stats.seconds
+        );
+    }
+    if which != "aorta" {
+        let image = io::read_image(&dir.join("vtk-carotid/carotid.mha"))?;
+        let start = Instant::now();
+        let mut segmenter = Segmenter::new(image.view(), params, DVec3::new(117.0, 103.0, 9.0))?;
+        let (mesh, _) = segmenter.segment()?;
+        let seconds = start.elapsed().as_secs_f64();
+        if let Some(dir) = &save {
+            io::write_mesh(&dir.join("carotid.vtp"), &mesh, &[])?;
+        }
+        let report = mesh_checks::check(&mesh);
+        let stats = segmenter.stats();
+        println!(
+            "{{\"scan\": \"carotid\", \"valid\": {}, \"components\": {}, \"genus\": {:?}, \
+             \"volume_mm3\": {:.0}, \"reference\": {:.1}, \"tolerance\": {:.1}, \"steps\": {}, \
+             \"reparametrizations\": {}, \"seconds\": {:.3}}}",
+            report.is_valid_closed_surface(),
+            report.components,
+            report.genus(),
+            report.signed_volume,
+            stats.reference_intensity,
+            stats.tolerance,
+            stats.iterations,
+            stats.reparametrizations,
+            seconds
+        );
+    }
+    Ok(())
+}
