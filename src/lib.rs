@@ -17,6 +17,7 @@ pub mod io;
 pub mod marching_cubes;
 pub mod mesh;
 pub mod mesh_checks;
+pub mod morphology;
 pub mod phantom;
 pub mod predicates;
 pub mod self_intersection;

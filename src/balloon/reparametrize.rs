@@ -4,9 +4,11 @@
 //! winding number is positive, so overlapping lobes count as inside) — whose zero isosurface
 //! (marching cubes) is the new surface, with the topology the contacts implied.
 //!
-//! The map covers only the balloon's bounding box plus the distance band and a margin of two
-//! voxels, on the volume's own grid lines; beyond the volume it simply continues the grid, so
-//! a balloon pressed against the volume's edge still closes.
+//! The map covers only the balloon's bounding box plus a margin for the closing (below), on the
+//! volume's own grid lines; beyond the volume it simply continues the grid, so a balloon pressed
+//! against the volume's edge still closes. Its distances are exact one voxel around the
+//! surface, all marching cubes needs; the refinement that follows fits the new surface to the
+//! image again.
 
 use glam::DVec3;
 
@@ -16,19 +18,24 @@ use crate::geometry::Geometry;
 use crate::marching_cubes::marching_cubes;
 use crate::mesh::TriMesh;
 use crate::mesh_checks;
+use crate::morphology;
 use crate::signed_distance::{signed_distance_values, SignedDistanceOptions};
 use crate::volume::VoxelBuffer;
 
 /// The new surface is closed morphologically with a ball of this many voxels (of the largest
-/// spacing): dilated to the distance's level +r, then eroded back by the distance to that
-/// surface. Tunnels narrower than the ball's diameter, which contacts across a pit of noise or a
-/// dark speck in the wall leave behind as handles, are filled; loops around anything wider (a
-/// torus's hole, the circle of Willis) are kept, and convex parts of the surface do not move.
+/// spacing), on the voxels: tunnels narrower than the ball's diameter, which contacts across a
+/// pit of noise or a dark speck in the wall leave behind as handles, are filled; loops around
+/// anything wider (a torus's hole, the circle of Willis) are kept.
 const CLOSING_VOXELS: f64 = 1.5;
 
 /// Exact voxel values of the level would put marching-cubes vertices on grid points and make
 /// degenerate triangles; they are moved this far (in mm) outward instead.
 const ZERO_NUDGE: f64 = 1e-9;
+
+/// Value (in units of the smallest spacing) given to the voxels the closing adds: just inside,
+/// so that the surface around them passes close to their centres and moves out no further
+/// than the closing needs. Refinement then fits it to the border again.
+const ADDED_INSIDE: f64 = 0.1;
 
 /// The new surface of `mesh`, whose vertices have `states`, on the grid of `geometry`.
 pub(crate) fn reparametrize(
@@ -46,15 +53,26 @@ pub(crate) fn reparametrize(
         })
         .collect();
     let surface = TriMesh::new(mesh.points().to_vec(), kept)?;
-    let options = SignedDistanceOptions::default();
-    let (grid, dims) = covering_grid(mesh, geometry, options.band_voxels + 2.0)?;
-    let radius = CLOSING_VOXELS * geometry.spacing().iter().copied().fold(0.0, f64::max);
-    let field = signed_distance_values(&surface, mesh, dims, &grid, &options)?;
-    let voxel: f64 = geometry.spacing().iter().product();
-    let dilated = without_cavities(isosurface(field, dims, &grid, radius)?, voxel);
-    let field = signed_distance_values(&dilated, &dilated, dims, &grid, &options)?;
+    // Marching cubes needs exact distances only at the grid points next to the surface, one
+    // voxel away at most; the sign comes from the winding numbers everywhere.
+    let options = SignedDistanceOptions { band_voxels: 1.0 };
+    let spacing = geometry.spacing();
+    let largest = spacing.iter().copied().fold(0.0, f64::max);
+    let smallest = spacing.iter().copied().fold(f64::INFINITY, f64::min);
+    let radius = CLOSING_VOXELS * largest;
+    // The closing's ball reaches this many voxels along the finest axis; beyond it the grid
+    // needs one voxel outside the dilated balloon.
+    let margin = (radius / smallest).ceil() + 2.0;
+    let (grid, dims) = covering_grid(mesh, geometry, margin)?;
+    let mut field = signed_distance_values(&surface, mesh, dims, &grid, &options)?;
+    let mut inside: Vec<bool> = field.iter().map(|&d| d < 0.0).collect();
+    let added_value = -ADDED_INSIDE * smallest;
+    for n in morphology::close(&mut inside, dims, spacing, radius) {
+        field[n] = added_value;
+    }
+    let voxel: f64 = spacing.iter().product();
     Ok(without_cavities(
-        isosurface(field, dims, &grid, -radius)?,
+        isosurface(field, dims, &grid, 0.0)?,
         voxel,
     ))
 }
