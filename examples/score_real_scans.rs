@@ -3,7 +3,7 @@
 //! its rows y = 89…176; for both, validity, components, genus, steps and seconds.
 //!
 //! `score_real_scans [aorta|carotid|both] [--reference R] [--tolerance T] [--threads N]
-//! [--save DIR]` prints one JSON line per scan (and with `--save`, writes `DIR/aorta.vtp`,
+//! [--step-fraction F] [--max-reparametrizations N] [--save DIR]` prints one JSON line per scan (and with `--save`, writes `DIR/aorta.vtp`,
 //! `DIR/carotid.vtp`); for trying parameters and estimators against the numbers BENCHMARKS.md
 //! quotes.
 
@@ -38,6 +38,7 @@ fn run() -> Result<()> {
             "--reference" => params.reference = Some(value("--reference")?),
             "--tolerance" => params.tolerance = Some(value("--tolerance")?),
             "--threads" => params.threads = value("--threads")? as usize,
+            "--step-fraction" => params.step_fraction = value("--step-fraction")?,
             "--max-reparametrizations" => {
                 params.max_reparametrizations = value("--max-reparametrizations")? as u32
             }
@@ -46,7 +47,8 @@ fn run() -> Result<()> {
             other => {
                 return Err(Error::invalid_argument(format!(
                     "unknown argument {other}; usage: score_real_scans [aorta|carotid|both] \
-                     [--reference R] [--tolerance T] [--threads N] [--save DIR]"
+                     [--reference R] [--tolerance T] [--threads N] [--step-fraction F] \
+                     [--max-reparametrizations N] [--save DIR]"
                 )))
             }
         }

@@ -163,7 +163,9 @@ mod tests {
         let added = close(&mut closed, dims, spacing, 1.7);
         assert!(!added.is_empty(), "the gap between the blobs must fill");
         let expected = brute_force(&mask, dims, spacing, 1.7);
-        let differ = (0..mask.len()).filter(|&n| closed[n] != expected[n]).count();
+        let differ = (0..mask.len())
+            .filter(|&n| closed[n] != expected[n])
+            .count();
         assert_eq!(differ, 0, "voxels that differ from the brute-force closing");
         for n in added {
             assert!(!mask[n] && closed[n]);

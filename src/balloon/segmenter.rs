@@ -18,6 +18,7 @@ use std::time::Instant;
 use glam::DVec3;
 
 use super::forces::IntensityWindow;
+use super::front::Front;
 use super::inflation::{Scratch, StepReport, Stepper};
 use super::params::BalloonParams;
 use super::reparametrize::reparametrize;
@@ -338,42 +339,39 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     /// lobes); returns how many vertices were newly frozen.
     pub fn freeze_self_intersections(&mut self) -> Result<usize> {
         let start = Instant::now();
-        self.surface.compact();
-        let mesh = self.surface.to_mesh()?;
-        let states = self.surface.states();
-        let active: Vec<bool> = mesh
-            .triangles()
+        let front = Front::of(&self.surface);
+        let near = near_front(
+            &self.surface,
+            &front.triangles,
+            SEARCH_CELLS * self.edge_length,
+        );
+        let local = local_mesh(&self.surface, &near)?;
+        let local_active: Vec<bool> = near
             .iter()
-            .map(|t| t.iter().any(|&v| states[v as usize] == VertexState::Moving))
+            .map(|t| front.triangles.binary_search(t).is_ok())
             .collect();
-        let near = near_active(&mesh, &active, SEARCH_CELLS * self.edge_length);
-        let local = TriMesh::new(
-            mesh.points().to_vec(),
-            near.iter().map(|&t| mesh.triangles()[t as usize]).collect(),
-        )?;
-        let local_active: Vec<bool> = near.iter().map(|&t| active[t as usize]).collect();
-        let pairs: Vec<(u32, u32)> = self
+        let pairs = self
             .pool
-            .install(|| self_intersections_among(&local, &local_active))?
-            .into_iter()
-            .map(|(a, b)| (near[a as usize], near[b as usize]))
-            .collect();
+            .install(|| self_intersections_among(&local, &local_active))?;
         let mut frozen = 0;
-        let mut front = Vec::new();
-        let states = self.surface.states_mut();
+        let mut fronts = Vec::new();
         for (a, b) in pairs {
             for t in [a, b] {
-                for v in mesh.triangles()[t as usize] {
-                    let state = &mut states[v as usize];
+                let corners = self
+                    .surface
+                    .triangle(near[t as usize])
+                    .expect("near triangles are live");
+                for v in corners {
+                    let state = &mut self.surface.states_mut()[v as usize];
                     if *state != VertexState::FrozenBySelfIntersection {
                         *state = VertexState::FrozenBySelfIntersection;
                         frozen += 1;
-                        front.push(v);
+                        fronts.push(v);
                     }
                 }
             }
         }
-        frozen += self.freeze_fronts(front);
+        frozen += self.freeze_fronts(fronts);
         self.stats
             .seconds
             .add(Phase::SelfIntersection, start.elapsed().as_secs_f64());
@@ -519,32 +517,68 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     }
 }
 
-/// The triangles (ids, ascending) whose bounding boxes reach a grid cell of size `cell` that
-/// the box of an active triangle reaches: every triangle an active one can intersect, since
-/// two intersecting triangles' boxes overlap in some cell both reach. The search for contacts
-/// then costs in proportion to the moving front, not to the whole balloon.
-fn near_active(mesh: &TriMesh, active: &[bool], cell: f64) -> Vec<u32> {
-    let cells = |t: usize| {
-        let [a, b, c] = mesh.corners(t);
+/// The live triangles (slots, ascending) whose bounding boxes reach a grid cell of size `cell`
+/// that the box of one of the `front` triangles reaches: every triangle a front triangle can
+/// intersect, since two intersecting triangles' boxes overlap in some cell both reach. The
+/// search for contacts then costs in proportion to the moving front; the pass over the other
+/// triangles only reads their corners, against a bitmap of the front's cells.
+fn near_front(surface: &Surface, front: &[u32], cell: f64) -> Vec<u32> {
+    let cells = |t: u32| {
+        let [a, b, c] = surface.triangle_corners(t).expect("live triangle");
         let lo = (a.min(b).min(c) / cell).floor().as_i64vec3();
         let hi = (a.max(b).max(c) / cell).floor().as_i64vec3();
-        (lo.z..=hi.z).flat_map(move |z| {
-            (lo.y..=hi.y).flat_map(move |y| (lo.x..=hi.x).map(move |x| [x, y, z]))
-        })
+        (lo, hi)
     };
-    let mut marked: Vec<[i64; 3]> = (0..active.len())
-        .filter(|&t| active[t])
-        .flat_map(cells)
-        .collect();
-    if marked.is_empty() {
+    let Some((lo, hi)) = front
+        .iter()
+        .map(|&t| cells(t))
+        .reduce(|(lo, hi), (l, h)| (lo.min(l), hi.max(h)))
+    else {
         return Vec::new();
+    };
+    let size = hi - lo + 1;
+    let at = |c: glam::I64Vec3| (c.x + size.x * (c.y + size.y * c.z)) as usize;
+    let mut marked = vec![false; (size.x * size.y * size.z) as usize];
+    for &t in front {
+        let (l, h) = cells(t);
+        for z in l.z..=h.z {
+            for y in l.y..=h.y {
+                for x in l.x..=h.x {
+                    marked[at(glam::I64Vec3::new(x, y, z) - lo)] = true;
+                }
+            }
+        }
     }
-    marked.sort_unstable();
-    marked.dedup();
-    (0..active.len())
-        .filter(|&t| active[t] || cells(t).any(|c| marked.binary_search(&c).is_ok()))
-        .map(|t| t as u32)
+    surface
+        .triangles()
+        .filter(|&(t, _)| {
+            let (l, h) = cells(t);
+            let (l, h) = (l.max(lo) - lo, h.min(hi) - lo);
+            (l.z..=h.z).any(|z| {
+                (l.y..=h.y).any(|y| (l.x..=h.x).any(|x| marked[at(glam::I64Vec3::new(x, y, z))]))
+            })
+        })
+        .map(|(t, _)| t)
         .collect()
+}
+
+/// The triangles `slots` of the surface as a mesh of their own, corners renumbered in order of
+/// first use (so the same surface always gives the same mesh).
+fn local_mesh(surface: &Surface, slots: &[u32]) -> Result<TriMesh> {
+    let mut index = std::collections::HashMap::new();
+    let mut points = Vec::new();
+    let triangles = slots
+        .iter()
+        .map(|&t| {
+            surface.triangle(t).expect("live triangle").map(|v| {
+                *index.entry(v).or_insert_with(|| {
+                    points.push(surface.positions()[v as usize]);
+                    points.len() as u32 - 1
+                })
+            })
+        })
+        .collect();
+    TriMesh::new(points, triangles)
 }
 
 #[cfg(test)]
