@@ -395,6 +395,9 @@ impl Surface {
         self.outgoing[m as usize] = he(t0, 1);
         self.live_vertices += 1;
         self.live_triangles += 2;
+        for t in [t0, t1, t2, t3] {
+            self.note_rewritten(t);
+        }
         Ok(m)
     }
 
@@ -445,6 +448,14 @@ impl Surface {
         self.collapse_half_edge(hk);
         self.positions[keep as usize] = target;
         self.states[keep as usize] = sa.max(sb);
+        // The triangles that were the removed vertex's now have `keep`, and `keep` may have
+        // moved: its whole fan changed.
+        if self.rewritten.is_some() {
+            let fan: Vec<u32> = self.outgoing_half_edges(keep).map(|h| h / 3).collect();
+            for t in fan {
+                self.note_rewritten(t);
+            }
+        }
         Ok(keep)
     }
 
@@ -539,6 +550,8 @@ impl Surface {
         for (v, e) in [(a, 3 * t0 + 1), (b, 3 * t1 + 1), (c, 3 * t0), (d, 3 * t1)] {
             self.outgoing[v as usize] = e;
         }
+        self.note_rewritten(t0);
+        self.note_rewritten(t1);
     }
 }
 

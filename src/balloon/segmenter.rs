@@ -17,6 +17,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
+use super::contact_search::{local_mesh, FrozenTriangles};
 use super::forces::IntensityWindow;
 use super::front::Front;
 use super::inflation::{Scratch, StepReport, Stepper};
@@ -121,6 +122,8 @@ pub struct Segmenter<'v, 'p> {
     window: IntensityWindow,
     edge_length: f64,
     surface: Surface,
+    /// The surface's frozen triangles, for the contact search; rebuilt with the surface.
+    frozen: FrozenTriangles,
     scratch: Scratch,
     stats: SegmentationStats,
     pool: rayon::ThreadPool,
@@ -159,11 +162,12 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             )));
         }
         let edge_length = params.edge_length.unwrap_or(geometry.mean_spacing());
-        let segmenter = Segmenter {
+        let mut segmenter = Segmenter {
             volume,
             window,
             edge_length,
             surface: Surface::icosphere(seed, geometry.mean_spacing(), 1)?,
+            frozen: FrozenTriangles::default(),
             scratch: Scratch::default(),
             stats: SegmentationStats {
                 reference_intensity: window.reference,
@@ -179,6 +183,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             params,
         };
         segmenter.check_seed(seed)?;
+        segmenter.index_surface();
         Ok(segmenter)
     }
 
@@ -191,6 +196,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         let mut surface = Surface::from_mesh(&mesh)?;
         surface.states_mut()[..states.len()].copy_from_slice(&states);
         self.surface = surface;
+        self.index_surface();
         Ok(())
     }
 
@@ -329,8 +335,16 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         }
         if self.surface.vertex_slots() > 2 * self.surface.vertex_count() {
             self.surface.compact();
+            self.index_surface();
         }
         Ok(())
+    }
+
+    /// Starts the index of frozen triangles afresh, after the surface was replaced or
+    /// compacted (slots renumbered).
+    fn index_surface(&mut self) {
+        self.surface.record_rewrites();
+        self.frozen = FrozenTriangles::new(&self.surface, SEARCH_CELLS * self.edge_length);
     }
 
     /// Freezes the vertices of every triangle that intersects another (paper, section 3), and
@@ -340,11 +354,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     pub fn freeze_self_intersections(&mut self) -> Result<usize> {
         let start = Instant::now();
         let front = Front::of(&self.surface);
-        let near = near_front(
-            &self.surface,
-            &front.triangles,
-            SEARCH_CELLS * self.edge_length,
-        );
+        let near = self.frozen.near(&mut self.surface, &front);
         let local = local_mesh(&self.surface, &near)?;
         let local_active: Vec<bool> = near
             .iter()
@@ -420,6 +430,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .pool
             .install(|| reparametrize(&mesh, &states, &geometry))?;
         self.surface = Surface::from_mesh(&repaired)?;
+        self.index_surface();
         self.stats.reparametrizations += 1;
         self.stats
             .seconds
@@ -515,70 +526,6 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             repaired = true;
         }
     }
-}
-
-/// The live triangles (slots, ascending) whose bounding boxes reach a grid cell of size `cell`
-/// that the box of one of the `front` triangles reaches: every triangle a front triangle can
-/// intersect, since two intersecting triangles' boxes overlap in some cell both reach. The
-/// search for contacts then costs in proportion to the moving front; the pass over the other
-/// triangles only reads their corners, against a bitmap of the front's cells.
-fn near_front(surface: &Surface, front: &[u32], cell: f64) -> Vec<u32> {
-    let cells = |t: u32| {
-        let [a, b, c] = surface.triangle_corners(t).expect("live triangle");
-        let lo = (a.min(b).min(c) / cell).floor().as_i64vec3();
-        let hi = (a.max(b).max(c) / cell).floor().as_i64vec3();
-        (lo, hi)
-    };
-    let Some((lo, hi)) = front
-        .iter()
-        .map(|&t| cells(t))
-        .reduce(|(lo, hi), (l, h)| (lo.min(l), hi.max(h)))
-    else {
-        return Vec::new();
-    };
-    let size = hi - lo + 1;
-    let at = |c: glam::I64Vec3| (c.x + size.x * (c.y + size.y * c.z)) as usize;
-    let mut marked = vec![false; (size.x * size.y * size.z) as usize];
-    for &t in front {
-        let (l, h) = cells(t);
-        for z in l.z..=h.z {
-            for y in l.y..=h.y {
-                for x in l.x..=h.x {
-                    marked[at(glam::I64Vec3::new(x, y, z) - lo)] = true;
-                }
-            }
-        }
-    }
-    surface
-        .triangles()
-        .filter(|&(t, _)| {
-            let (l, h) = cells(t);
-            let (l, h) = (l.max(lo) - lo, h.min(hi) - lo);
-            (l.z..=h.z).any(|z| {
-                (l.y..=h.y).any(|y| (l.x..=h.x).any(|x| marked[at(glam::I64Vec3::new(x, y, z))]))
-            })
-        })
-        .map(|(t, _)| t)
-        .collect()
-}
-
-/// The triangles `slots` of the surface as a mesh of their own, corners renumbered in order of
-/// first use (so the same surface always gives the same mesh).
-fn local_mesh(surface: &Surface, slots: &[u32]) -> Result<TriMesh> {
-    let mut index = std::collections::HashMap::new();
-    let mut points = Vec::new();
-    let triangles = slots
-        .iter()
-        .map(|&t| {
-            surface.triangle(t).expect("live triangle").map(|v| {
-                *index.entry(v).or_insert_with(|| {
-                    points.push(surface.positions()[v as usize]);
-                    points.len() as u32 - 1
-                })
-            })
-        })
-        .collect();
-    TriMesh::new(points, triangles)
 }
 
 #[cfg(test)]

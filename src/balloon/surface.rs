@@ -71,6 +71,9 @@ pub struct Surface {
     pub(super) twins: Vec<u32>,
     pub(super) live_vertices: usize,
     pub(super) live_triangles: usize,
+    /// With [`Surface::record_rewrites`], the triangle slots whose corners, or a corner's
+    /// position, remeshing has changed since [`Surface::take_rewritten`] (repeats allowed).
+    pub(super) rewritten: Option<Vec<u32>>,
 }
 
 #[inline]
@@ -187,6 +190,7 @@ impl Surface {
             outgoing,
             triangles,
             twins,
+            rewritten: None,
         };
         // A vertex of valence two sits between two triangles with the same three corners (a
         // two-triangle "pillow"), which no edge operation can handle.
@@ -255,7 +259,34 @@ impl Surface {
         self.outgoing = outgoing;
         self.triangles = triangles;
         self.twins = twins;
+        if let Some(rewritten) = &mut self.rewritten {
+            rewritten.clear();
+        }
         vmap
+    }
+
+    /// From now on, remeshing notes the triangle slots it rewrites, for
+    /// [`Surface::take_rewritten`]: an index of the frozen triangles can then follow the few
+    /// that change instead of scanning them all.
+    pub fn record_rewrites(&mut self) {
+        self.rewritten.get_or_insert_with(Vec::new);
+    }
+
+    /// The triangle slots remeshing has rewritten (new ones included) since the last call or
+    /// since [`Surface::record_rewrites`]; empty unless recording. Compaction renumbers every
+    /// slot and forgets the record.
+    pub fn take_rewritten(&mut self) -> Vec<u32> {
+        self.rewritten
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
+    }
+
+    /// Notes that remeshing rewrote triangle `t`.
+    pub(super) fn note_rewritten(&mut self, t: u32) {
+        if let Some(rewritten) = &mut self.rewritten {
+            rewritten.push(t);
+        }
     }
 
     fn vertex_map(&self) -> Vec<u32> {
