@@ -14,11 +14,27 @@
 /// grid's faces (voxels beyond them count as outside), or it is closed against those faces.
 pub fn close(mask: &mut [bool], dims: [usize; 3], spacing: [f64; 3], radius_mm: f64) -> Vec<usize> {
     let ball = Ball::new(spacing, radius_mm);
-    let dilated = ball.dilate(mask, dims, true);
-    let outside_eroded = ball.dilate(&dilated, dims, false);
+    let grid = Grid(dims);
+    let mut dilated = mask.to_vec();
+    for n in (0..mask.len()).filter(|&n| mask[n]) {
+        if grid.neighbours(n).any(|m| !mask[m]) || grid.on_face(n) {
+            ball.mark(&mut dilated, grid, n);
+        }
+    }
+    // The erosion of the dilation: what lies within the radius of a voxel outside it.
+    let mut eroded = vec![false; mask.len()];
+    let mut source = vec![false; mask.len()];
+    for n in (0..mask.len()).filter(|&n| dilated[n]) {
+        for m in grid.neighbours(n) {
+            if !dilated[m] && !source[m] {
+                source[m] = true;
+                ball.mark(&mut eroded, grid, m);
+            }
+        }
+    }
     let mut added = Vec::new();
     for (n, inside) in mask.iter_mut().enumerate() {
-        if !*inside && dilated[n] && !outside_eroded[n] {
+        if !*inside && dilated[n] && !eroded[n] {
             *inside = true;
             added.push(n);
         }
@@ -49,53 +65,53 @@ impl Ball {
         Ball { offsets }
     }
 
-    /// The dilation of the voxels whose mask value is `value` (as a mask of those voxels).
-    fn dilate(&self, mask: &[bool], dims: [usize; 3], value: bool) -> Vec<bool> {
-        let [ni, nj, nk] = dims;
-        let index = |i: usize, j: usize, k: usize| i + ni * (j + nj * k);
-        let mut out: Vec<bool> = mask.iter().map(|&m| m == value).collect();
-        for k in 0..nk {
-            for j in 0..nj {
-                for i in 0..ni {
-                    if mask[index(i, j, k)] != value || !on_boundary(mask, dims, [i, j, k], value) {
-                        continue;
-                    }
-                    for d in &self.offsets {
-                        let (Some(x), Some(y), Some(z)) = (
-                            i.checked_add_signed(d[0]).filter(|&x| x < ni),
-                            j.checked_add_signed(d[1]).filter(|&y| y < nj),
-                            k.checked_add_signed(d[2]).filter(|&z| z < nk),
-                        ) else {
-                            continue;
-                        };
-                        out[index(x, y, z)] = true;
-                    }
-                }
-            }
+    /// Sets `out` at the voxels of the ball around voxel `n`, those inside the grid.
+    fn mark(&self, out: &mut [bool], grid: Grid, n: usize) {
+        let [ni, nj, nk] = grid.0;
+        let (i, j, k) = grid.coordinates(n);
+        for d in &self.offsets {
+            let (Some(x), Some(y), Some(z)) = (
+                i.checked_add_signed(d[0]).filter(|&x| x < ni),
+                j.checked_add_signed(d[1]).filter(|&y| y < nj),
+                k.checked_add_signed(d[2]).filter(|&z| z < nk),
+            ) else {
+                continue;
+            };
+            out[x + ni * (y + nj * z)] = true;
         }
-        out
     }
 }
 
-/// Whether the voxel `at` (whose value is `value`) has a 6-neighbour of the other value;
-/// beyond the grid's faces every voxel counts as outside (`false`).
-fn on_boundary(
-    mask: &[bool],
-    [ni, nj, nk]: [usize; 3],
-    [i, j, k]: [usize; 3],
-    value: bool,
-) -> bool {
-    let index = |i: usize, j: usize, k: usize| i + ni * (j + nj * k);
-    let differs = |x: Option<usize>, y: Option<usize>, z: Option<usize>| match (x, y, z) {
-        (Some(x), Some(y), Some(z)) if x < ni && y < nj && z < nk => mask[index(x, y, z)] != value,
-        _ => value,
-    };
-    differs(i.checked_sub(1), Some(j), Some(k))
-        || differs(Some(i + 1), Some(j), Some(k))
-        || differs(Some(i), j.checked_sub(1), Some(k))
-        || differs(Some(i), Some(j + 1), Some(k))
-        || differs(Some(i), Some(j), k.checked_sub(1))
-        || differs(Some(i), Some(j), Some(k + 1))
+/// Voxel indices on a grid of these dimensions, i fastest.
+#[derive(Clone, Copy)]
+struct Grid([usize; 3]);
+
+impl Grid {
+    fn coordinates(self, n: usize) -> (usize, usize, usize) {
+        let [ni, nj, _] = self.0;
+        (n % ni, n / ni % nj, n / (ni * nj))
+    }
+
+    /// The 6-neighbours of voxel `n` inside the grid.
+    fn neighbours(self, n: usize) -> impl Iterator<Item = usize> {
+        let [ni, nj, nk] = self.0;
+        let (i, j, k) = self.coordinates(n);
+        [
+            (i > 0).then(|| n - 1),
+            (i + 1 < ni).then(|| n + 1),
+            (j > 0).then(|| n - ni),
+            (j + 1 < nj).then(|| n + ni),
+            (k > 0).then(|| n - ni * nj),
+            (k + 1 < nk).then(|| n + ni * nj),
+        ]
+        .into_iter()
+        .flatten()
+    }
+
+    /// Whether voxel `n` lies on a face of the grid (has a 6-neighbour beyond it).
+    fn on_face(self, n: usize) -> bool {
+        self.neighbours(n).count() < 6
+    }
 }
 
 #[cfg(test)]

@@ -7,7 +7,8 @@
 //! reaches. Entries are never removed: a slot that was rewritten, moved back into the front or
 //! died keeps stale entries, which a search skips by checking the triangle as it is now.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
+use std::hash::{BuildHasherDefault, Hasher};
 
 use glam::{DVec3, I64Vec3};
 
@@ -16,11 +17,42 @@ use super::surface::Surface;
 use crate::error::Result;
 use crate::mesh::TriMesh;
 
+/// Multiply-rotate hashing of integer keys (as in Firefox's FxHash): SipHash's defence against
+/// chosen keys buys nothing for grid cells and vertex ids, and its cost was a third of a search.
+#[derive(Default, Clone, Copy)]
+struct IntegerHasher(u64);
+
+impl Hasher for IntegerHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(u64::from(b));
+        }
+    }
+
+    fn write_u64(&mut self, n: u64) {
+        self.0 = (self.0.rotate_left(5) ^ n).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+
+    fn write_i64(&mut self, n: i64) {
+        self.write_u64(n as u64);
+    }
+
+    fn write_u32(&mut self, n: u32) {
+        self.write_u64(u64::from(n));
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+type FastHash = BuildHasherDefault<IntegerHasher>;
+
 /// The frozen triangles of a surface by grid cell.
 #[derive(Debug, Default)]
 pub(crate) struct FrozenTriangles {
     cell: f64,
-    cells: HashMap<I64Vec3, Vec<u32>>,
+    cells: HashMap<I64Vec3, Vec<u32>, FastHash>,
     /// The front's triangles at the last search: those of them frozen since must be entered.
     last_front: Vec<u32>,
 }
@@ -49,22 +81,17 @@ impl FrozenTriangles {
         self.enter(surface, changed);
         self.last_front.clone_from(&front.triangles);
 
-        let mut marked: Vec<I64Vec3> = Vec::new();
+        let mut marked: HashSet<I64Vec3, FastHash> = HashSet::default();
         for &t in &front.triangles {
             let (lo, hi) = self.cell_range(surface, t);
-            for_each_cell(lo, hi, |c| marked.push(c));
+            for_each_cell(lo, hi, |c| {
+                marked.insert(c);
+            });
         }
-        marked.sort_unstable_by_key(|c| c.to_array());
-        marked.dedup();
         let reaches_marked = |t: u32| {
             let (lo, hi) = self.cell_range(surface, t);
             let mut any = false;
-            for_each_cell(lo, hi, |c| {
-                any = any
-                    || marked
-                        .binary_search_by_key(&c.to_array(), |m| m.to_array())
-                        .is_ok()
-            });
+            for_each_cell(lo, hi, |c| any = any || marked.contains(&c));
             any
         };
         let mut near = front.triangles.clone();
@@ -121,7 +148,7 @@ fn for_each_cell(lo: I64Vec3, hi: I64Vec3, mut f: impl FnMut(I64Vec3)) {
 /// The triangles `slots` of the surface as a mesh of their own, corners renumbered in order of
 /// first use (so the same surface always gives the same mesh).
 pub(crate) fn local_mesh(surface: &Surface, slots: &[u32]) -> Result<TriMesh> {
-    let mut index = HashMap::new();
+    let mut index: HashMap<u32, u32, FastHash> = HashMap::default();
     let mut points = Vec::new();
     let triangles = slots
         .iter()
