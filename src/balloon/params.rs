@@ -17,8 +17,9 @@ pub struct BalloonParams {
     pub edge_length: Option<f64>,
     pub weights: ForceWeights,
     /// Largest displacement of a vertex in one step, as a fraction of the smallest spacing, so
-    /// that the balloon cannot jump through a thin wall: below one, a dark wall one voxel thick
-    /// (whose trilinear dip spans a voxel) is always sampled. Default 0.5.
+    /// that the balloon cannot jump through a thin wall: a step lands inside any dip of the
+    /// trilinear intensity below the border that is wider than it. A dark wall one voxel thick
+    /// dips below a border half-way to the structure for a whole voxel. Default 0.75.
     pub step_fraction: f64,
     /// Steps of inflation before the balloon is taken as it is (equilibrium usually comes first).
     pub max_iterations: u32,
@@ -41,7 +42,7 @@ impl Default for BalloonParams {
             tolerance: None,
             edge_length: None,
             weights: ForceWeights::default(),
-            step_fraction: 0.5,
+            step_fraction: 0.75,
             max_iterations: 4000,
             self_intersection_interval: 5,
             refinement_iterations: 40,

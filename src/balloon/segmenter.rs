@@ -35,13 +35,14 @@ use crate::volume::Volume;
 /// collapsed: a split leaves halves (0.75 L) above the collapse length, so work is not undone.
 const SPLIT_ABOVE: f64 = 1.5;
 const COLLAPSE_BELOW: f64 = 0.6;
-/// Steps between two remeshings: at half a voxel per step (the default step fraction) an edge
-/// of the growing balloon stretches by well under half its length in between.
+/// Steps between two remeshings: at three quarters of a voxel per step (the default step
+/// fraction) an edge of the growing balloon stretches by well under half its length in between.
 const REMESH_INTERVAL: u32 = 2;
 /// Equilibrium when no vertex moved more than this fraction of the step size.
 const STILL: f64 = 1e-3;
 /// Steps over which the enclosed volume must grow by a voxel for the balloon to count as
-/// growing: a front advancing at half a voxel per step sweeps a dozen voxels in that time.
+/// growing: a front advancing at most a voxel per step sweeps a dozen voxels or more in that
+/// time.
 const STALL_STEPS: u32 = 25;
 /// Cell size, in target edge lengths, of the grid that finds the triangles near the moving
 /// front for the self-intersection search: about the size of a triangle's box.
