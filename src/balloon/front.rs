@@ -52,7 +52,8 @@ impl Front {
         self.edges.dedup();
     }
 
-    /// Every vertex the front's edges reach: the moving vertices and their neighbours.
+    /// The corners of the front's triangles, with repeats: the moving vertices and their
+    /// neighbours.
     pub fn reached_vertices<'a>(&'a self, surface: &'a Surface) -> impl Iterator<Item = u32> + 'a {
         self.triangles
             .iter()

@@ -10,8 +10,8 @@ use crate::error::{Error, Result};
 pub struct BalloonParams {
     /// Intensity of the structure; default: the median around the first seed.
     pub reference: Option<f64>,
-    /// Half-width of the intensity window around the reference; default: half the contrast
-    /// between the structure and its surroundings (see `seed_statistics`).
+    /// Half-width of the intensity window around the reference; default: the distance from
+    /// the reference to the structure's steepest edge around the seed (see `seed_statistics`).
     pub tolerance: Option<f64>,
     /// Target edge length in mm; default: the mean voxel spacing.
     pub edge_length: Option<f64>,

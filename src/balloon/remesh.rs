@@ -118,11 +118,13 @@ fn folds(old: DVec3, p: DVec3, q: DVec3, r: DVec3) -> bool {
 impl Surface {
     /// Splits every edge of the moving front (`Front`: the edges with a moving end or
     /// opposite vertex; frozen parts keep their triangles) longer than `max_length` at its
-    /// midpoint, longest first, until none is longer (Rivara's longest-edge bisection
-    /// terminates because each split halves an edge). Both triangles of a split edge become two. The new vertex is appended and is
-    /// `Moving` unless both ends are frozen; then it takes the later of their states in
-    /// [`VertexState`] order (self-intersection wins over border), because a point between two
-    /// frozen vertices lies where they stopped. Returns the number of splits (= new vertices).
+    /// midpoint, longest first, until none is longer, and with them the long edges of the
+    /// triangles the splits touch (Rivara's longest-edge bisection terminates because each
+    /// split halves an edge). Both triangles of a split edge become two. The new vertex is
+    /// appended and is `Moving` unless both ends are frozen; then it takes the later of their
+    /// states in [`VertexState`] order (self-intersection wins over border), because a point
+    /// between two frozen vertices lies where they stopped. Returns the number of splits
+    /// (= new vertices).
     pub fn split_long_edges(&mut self, max_length: f64) -> Result<usize> {
         if !(max_length.is_finite() && max_length > 0.0) {
             return Err(Error::invalid_argument(format!(
@@ -165,8 +167,7 @@ impl Surface {
     }
 
     /// Collapses edges of the moving front shorter than `min_length`, shortest first, each
-    /// into one vertex, when
-    /// the result stays a closed 2-manifold that is geometrically sound:
+    /// into one vertex, when the result stays a closed 2-manifold that is geometrically sound:
     /// - the ends' common neighbours are exactly the two opposite vertices (link condition),
     ///   and no vertex keeps fewer than three neighbours (so a tetrahedron is never collapsed);
     /// - no remaining triangle around the edge turns by 90° or more or becomes degenerate;
@@ -229,8 +230,7 @@ impl Surface {
     }
 
     /// One pass over the moving front's edges in slot order, flipping each edge whose flip
-    /// brings the
-    /// valences of its four vertices closer to 6 (sum of squared deviations strictly
+    /// brings the valences of its four vertices closer to 6 (sum of squared deviations strictly
     /// decreases), as long as the two new triangles are not degenerate and both stay within
     /// 90° of both old ones, the new diagonal is not already an edge and no vertex drops below
     /// three neighbours. Edges whose four vertices are all frozen are left as they are. Flips
@@ -241,8 +241,8 @@ impl Surface {
         let mut valence: HashMap<u32, i64> = HashMap::new();
         let mut flips = 0;
         for h in front.edges {
-            // An earlier flip may have turned this slot into another edge, or frozen all of
-            // its quad's corners; the check below skips the latter.
+            // An earlier flip may have put another edge in this slot, standing for it or not,
+            // and with a wholly frozen quad (skipped below).
             if !self.represents_edge(h) {
                 continue;
             }

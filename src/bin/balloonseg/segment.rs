@@ -32,7 +32,8 @@ pub struct Args {
     /// Intensity of the structure (default: estimated around the first seed).
     #[arg(long, allow_negative_numbers = true)]
     reference: Option<f64>,
-    /// Half-width of the intensity window (default: half the contrast to the surroundings).
+    /// Half-width of the intensity window (default: from the reference to the structure's
+    /// steepest edge along rays from the first seed).
     #[arg(long)]
     tolerance: Option<f64>,
     /// Target edge length in mm (default: the mean voxel spacing).
@@ -47,6 +48,9 @@ pub struct Args {
     /// Weight of the inflation force.
     #[arg(long)]
     inflation: Option<f64>,
+    /// Largest move of a vertex per step, as a fraction of the smallest spacing.
+    #[arg(long)]
+    step_fraction: Option<f64>,
     /// Inflation steps before the balloon is taken as it is.
     #[arg(long)]
     max_iterations: Option<u32>,
@@ -56,6 +60,9 @@ pub struct Args {
     /// Deformation steps after each re-parametrisation.
     #[arg(long)]
     refinement_iterations: Option<u32>,
+    /// Re-parametrisations before the marching-cubes surface is returned as it is.
+    #[arg(long)]
+    max_reparametrizations: Option<u32>,
     /// Leak guard: growing past this many vertices is an error.
     #[arg(long)]
     max_vertices: Option<usize>,
@@ -73,6 +80,7 @@ impl Args {
                 bending: self.bending.unwrap_or(d.weights.bending),
                 inflation: self.inflation.unwrap_or(d.weights.inflation),
             },
+            step_fraction: self.step_fraction.unwrap_or(d.step_fraction),
             max_iterations: self.max_iterations.unwrap_or(d.max_iterations),
             self_intersection_interval: self
                 .self_intersection_interval
@@ -80,6 +88,9 @@ impl Args {
             refinement_iterations: self
                 .refinement_iterations
                 .unwrap_or(d.refinement_iterations),
+            max_reparametrizations: self
+                .max_reparametrizations
+                .unwrap_or(d.max_reparametrizations),
             max_vertices: self.max_vertices.unwrap_or(d.max_vertices),
             threads,
             ..d
