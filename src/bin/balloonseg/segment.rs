@@ -93,7 +93,6 @@ impl Args {
                 .unwrap_or(d.max_reparametrizations),
             max_vertices: self.max_vertices.unwrap_or(d.max_vertices),
             threads,
-            ..d
         }
     }
 
