@@ -1,6 +1,6 @@
-//! Binary morphological closing of a voxel mask by a ball given in millimetres, on an
-//! anisotropic grid (Serra, "Image analysis and mathematical morphology", 1982): dilation,
-//! then erosion, each by the set of voxel offsets within the radius.
+//! Binary morphology of voxel masks on an anisotropic grid (Serra, "Image analysis and
+//! mathematical morphology", 1982): dilation, erosion and closing by a ball given in
+//! millimetres (the set of voxel offsets within the radius), and 6-connected components.
 //!
 //! Both operations work from boundary voxels only. The voxel of a set nearest to a voxel
 //! outside it always has a 6-neighbour outside the set (a step along any axis towards the
@@ -13,6 +13,24 @@
 /// indices of the voxels it adds, ascending. The set must stay one ball's width away from the
 /// grid's faces (voxels beyond them count as outside), or it is closed against those faces.
 pub fn close(mask: &mut [bool], dims: [usize; 3], spacing: [f64; 3], radius_mm: f64) -> Vec<usize> {
+    let closed = erode(
+        &dilate(mask, dims, spacing, radius_mm),
+        dims,
+        spacing,
+        radius_mm,
+    );
+    let mut added = Vec::new();
+    for (n, inside) in mask.iter_mut().enumerate() {
+        if !*inside && closed[n] {
+            *inside = true;
+            added.push(n);
+        }
+    }
+    added
+}
+
+/// The voxels within `radius_mm` of a voxel of `mask` (i fastest, `dims`, spacing in mm).
+pub fn dilate(mask: &[bool], dims: [usize; 3], spacing: [f64; 3], radius_mm: f64) -> Vec<bool> {
     let ball = Ball::new(spacing, radius_mm);
     let grid = Grid(dims);
     let mut dilated = mask.to_vec();
@@ -21,25 +39,54 @@ pub fn close(mask: &mut [bool], dims: [usize; 3], spacing: [f64; 3], radius_mm: 
             ball.mark(&mut dilated, grid, n);
         }
     }
-    // The erosion of the dilation: what lies within the radius of a voxel outside it.
-    let mut eroded = vec![false; mask.len()];
+    dilated
+}
+
+/// The voxels of `mask` farther than `radius_mm` from every voxel of the grid outside it
+/// (those beyond the grid's faces do not count).
+pub fn erode(mask: &[bool], dims: [usize; 3], spacing: [f64; 3], radius_mm: f64) -> Vec<bool> {
+    let ball = Ball::new(spacing, radius_mm);
+    let grid = Grid(dims);
+    let mut near_outside = vec![false; mask.len()];
     let mut source = vec![false; mask.len()];
-    for n in (0..mask.len()).filter(|&n| dilated[n]) {
+    for n in (0..mask.len()).filter(|&n| mask[n]) {
         for m in grid.neighbours(n) {
-            if !dilated[m] && !source[m] {
+            if !mask[m] && !source[m] {
                 source[m] = true;
-                ball.mark(&mut eroded, grid, m);
+                ball.mark(&mut near_outside, grid, m);
             }
         }
     }
-    let mut added = Vec::new();
-    for (n, inside) in mask.iter_mut().enumerate() {
-        if !*inside && dilated[n] && !eroded[n] {
-            *inside = true;
-            added.push(n);
+    mask.iter()
+        .zip(&near_outside)
+        .map(|(&m, &o)| m && !o)
+        .collect()
+}
+
+/// The 6-connected components of `mask`: a label per voxel (`u32::MAX` outside the mask),
+/// numbered in the order of their first voxel, and how many there are.
+pub fn components(mask: &[bool], dims: [usize; 3]) -> (Vec<u32>, u32) {
+    let grid = Grid(dims);
+    let mut labels = vec![u32::MAX; mask.len()];
+    let mut count = 0;
+    let mut stack = Vec::new();
+    for start in 0..mask.len() {
+        if !mask[start] || labels[start] != u32::MAX {
+            continue;
         }
+        labels[start] = count;
+        stack.push(start);
+        while let Some(n) = stack.pop() {
+            for m in grid.neighbours(n) {
+                if mask[m] && labels[m] == u32::MAX {
+                    labels[m] = count;
+                    stack.push(m);
+                }
+            }
+        }
+        count += 1;
     }
-    added
+    (labels, count)
 }
 
 /// The voxel offsets `(di, dj, dk)` within the radius.
@@ -84,16 +131,16 @@ impl Ball {
 
 /// Voxel indices on a grid of these dimensions, i fastest.
 #[derive(Clone, Copy)]
-struct Grid([usize; 3]);
+pub(crate) struct Grid(pub [usize; 3]);
 
 impl Grid {
-    fn coordinates(self, n: usize) -> (usize, usize, usize) {
+    pub fn coordinates(self, n: usize) -> (usize, usize, usize) {
         let [ni, nj, _] = self.0;
         (n % ni, n / ni % nj, n / (ni * nj))
     }
 
     /// The 6-neighbours of voxel `n` inside the grid.
-    fn neighbours(self, n: usize) -> impl Iterator<Item = usize> {
+    pub fn neighbours(self, n: usize) -> impl Iterator<Item = usize> {
         let [ni, nj, nk] = self.0;
         let (i, j, k) = self.coordinates(n);
         [
@@ -186,6 +233,27 @@ mod tests {
         for n in added {
             assert!(!mask[n] && closed[n]);
         }
+    }
+
+    #[test]
+    fn erosion_separates_two_touching_balls_into_two_cores() {
+        // Two balls of radius 5 whose surfaces touch at x = 15.
+        let dims = [32, 16, 16];
+        let spacing = [1.0; 3];
+        let ball = |p: [f64; 3], c: f64| {
+            (p[0] - c).powi(2) + (p[1] - 8.0).powi(2) + (p[2] - 8.0).powi(2) <= 25.0
+        };
+        let mask = grid(dims, |p| ball(p, 10.0) || ball(p, 20.0), spacing);
+        assert_eq!(components(&mask, dims).1, 1);
+        let cores = erode(&mask, dims, spacing, 2.0);
+        let (labels, count) = components(&cores, dims);
+        assert_eq!(count, 2);
+        let at = |i: usize| i + 32 * (8 + 16 * 8);
+        assert_ne!(labels[at(10)], labels[at(20)]);
+        assert!(cores.iter().zip(&mask).all(|(&c, &m)| !c || m));
+        // Dilating the cores back gives no more than the balls.
+        let back = dilate(&cores, dims, spacing, 2.0);
+        assert!(back.iter().zip(&mask).all(|(&b, &m)| !b || m));
     }
 
     #[test]

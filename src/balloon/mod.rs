@@ -13,6 +13,7 @@ mod reparametrize;
 pub mod seed_statistics;
 mod segmenter;
 pub mod surface;
+mod touching;
 
 pub use params::BalloonParams;
 pub use segmenter::{Phase, PhaseSeconds, ProgressCallback, SegmentationStats, Segmenter};

@@ -78,7 +78,12 @@ pub(crate) fn reparametrize(
 }
 
 /// The surface `field = level` (outward: the field grows outward).
-fn isosurface(field: Vec<f64>, dims: [usize; 3], grid: &Geometry, level: f64) -> Result<TriMesh> {
+pub(super) fn isosurface(
+    field: Vec<f64>,
+    dims: [usize; 3],
+    grid: &Geometry,
+    level: f64,
+) -> Result<TriMesh> {
     let nudged: Vec<f64> = field
         .into_iter()
         .map(|v| if v == level { v + ZERO_NUDGE } else { v })
@@ -89,7 +94,7 @@ fn isosurface(field: Vec<f64>, dims: [usize; 3], grid: &Geometry, level: f64) ->
 
 /// The sub-grid of `geometry` (same spacing and direction, origin on a grid point) that covers
 /// the mesh's bounding box plus `margin_voxels` on every side.
-fn covering_grid(
+pub(super) fn covering_grid(
     mesh: &TriMesh,
     geometry: &Geometry,
     margin_voxels: f64,
@@ -117,7 +122,7 @@ fn covering_grid(
 /// balloon that no balloon grown from a seed can have — and those that enclose less than
 /// `min_volume`: specks that marching cubes leaves where the field barely dips below the level
 /// at a lone grid point, smaller than any seed sphere.
-fn without_cavities(mesh: TriMesh, min_volume: f64) -> TriMesh {
+pub(super) fn without_cavities(mesh: TriMesh, min_volume: f64) -> TriMesh {
     let (labels, volume) = mesh_checks::component_volumes(&mesh);
     if volume.iter().all(|&v| v >= min_volume) {
         return mesh;

@@ -134,10 +134,26 @@ fn edge_intensity(
             / norm
     };
     let slope = |i: isize| (smoothed(i + 1) - smoothed(i - 1)).abs();
-    let steepest = (-before..=after)
+    // One sample in from the window's ends, for the parabola below.
+    let steepest = (1 - before..after)
         .max_by(|&a, &b| slope(a).total_cmp(&slope(b)))
         .expect("a non-empty window");
-    Some(smoothed(steepest))
+    // Between samples: the vertex of the parabola through the slopes around the steepest
+    // sample, so that the border does not depend on where the samples fall on the edge (on a
+    // staircase edge that moved it by a tenth of the contrast between ray directions).
+    let (left, centre, right) = (slope(steepest - 1), slope(steepest), slope(steepest + 1));
+    let curvature = left - 2.0 * centre + right;
+    let offset = if curvature < 0.0 {
+        (0.5 * (left - right) / curvature).clamp(-0.5, 0.5)
+    } else {
+        0.0
+    };
+    let (here, next) = if offset >= 0.0 {
+        (smoothed(steepest), smoothed(steepest + 1))
+    } else {
+        (smoothed(steepest), smoothed(steepest - 1))
+    };
+    Some(here + offset.abs() * (next - here))
 }
 
 /// Median and MAD of the voxels within 2 voxels of the continuous index `centre`.

@@ -25,6 +25,7 @@ use super::params::BalloonParams;
 use super::reparametrize::reparametrize;
 use super::seed_statistics::{self, SeedStatistics};
 use super::surface::{Surface, VertexState};
+use super::touching::cut_touching;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::mesh_checks;
@@ -44,6 +45,9 @@ const STILL: f64 = 1e-3;
 /// growing: a front advancing at most a voxel per step sweeps a dozen voxels or more in that
 /// time.
 const STALL_STEPS: u32 = 25;
+/// Radius, in target edge lengths, of the ball whose erosion finds the thick parts of the
+/// balloon when looking for structures that touch: thinner parts have no core of their own.
+const TOUCHING_EDGE_LENGTHS: f64 = 2.5;
 /// Cell size, in target edge lengths, of the grid that finds the triangles near the moving
 /// front for the self-intersection search: about the size of a triangle's box.
 const SEARCH_CELLS: f64 = 2.0;
@@ -125,6 +129,8 @@ pub struct Segmenter<'v, 'p> {
     surface: Surface,
     /// The surface's frozen triangles, for the contact search; rebuilt with the surface.
     frozen: FrozenTriangles,
+    /// The seed points (world mm): the structures touching theirs are cut off at the end.
+    seeds: Vec<DVec3>,
     scratch: Scratch,
     stats: SegmentationStats,
     pool: rayon::ThreadPool,
@@ -169,6 +175,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             edge_length,
             surface: Surface::icosphere(seed, geometry.mean_spacing(), 1)?,
             frozen: FrozenTriangles::default(),
+            seeds: vec![seed],
             scratch: Scratch::default(),
             stats: SegmentationStats {
                 reference_intensity: window.reference,
@@ -198,6 +205,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         surface.states_mut()[..states.len()].copy_from_slice(&states);
         self.surface = surface;
         self.index_surface();
+        self.seeds.push(seed);
         Ok(())
     }
 
@@ -467,7 +475,32 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             budget = budget.saturating_sub(used);
             self.freeze_self_intersections()?;
         }
+        self.cut_touching()?;
         self.validated()
+    }
+
+    /// Cuts off the structures the balloon entered through an elongated contact with the
+    /// seeds' structure (`touching`), with cores eroded by `TOUCHING_EDGE_LENGTHS` target edge
+    /// lengths: the paper ties the triangle size to the scale of the smallest structure.
+    fn cut_touching(&mut self) -> Result<()> {
+        let start = Instant::now();
+        self.report(0.9, Phase::Reparametrization)?;
+        let (mesh, _) = self.mesh();
+        let geometry = *self.volume.geometry();
+        let radius = TOUCHING_EDGE_LENGTHS * self.edge_length;
+        let seeds = &self.seeds;
+        if let Some(cut) = self
+            .pool
+            .install(|| cut_touching(&mesh, &geometry, seeds, radius))?
+        {
+            self.surface = Surface::from_mesh(&cut)?;
+            self.surface.states_mut().fill(VertexState::FrozenAtBorder);
+            self.index_surface();
+        }
+        self.stats
+            .seconds
+            .add(Phase::Reparametrization, start.elapsed().as_secs_f64());
+        Ok(())
     }
 
     /// Up to `limit` steps, until equilibrium: no vertex moving measurably, or the enclosed
