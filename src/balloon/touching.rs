@@ -57,6 +57,10 @@ pub(crate) fn cut_touching(
         .map(|n| basins[n])
         .filter(|&b| b != u32::MAX)
         .collect();
+    if seed_basins.is_empty() {
+        // The seeds lie in parts too thin for a core of their own: nothing to compare with.
+        return Ok(None);
+    }
     let kept = joined_through_round_contacts(&basins, count, &seed_basins, dims, &grid);
     let cut: Vec<usize> = (0..basins.len())
         .filter(|&n| basins[n] != u32::MAX && !kept[basins[n] as usize])
@@ -325,5 +329,13 @@ mod tests {
         assert!(cut_touching(&sphere, &g, &[DVec3::ZERO], 2.6)
             .unwrap()
             .is_none());
+    }
+
+    #[test]
+    fn a_seed_outside_every_basin_cuts_nothing() {
+        let g = Geometry::with_spacing([0.8, 0.8, 1.5], [0.0; 3]).unwrap();
+        let tubes = capsules(true);
+        let far = DVec3::new(0.0, 30.0, 0.0);
+        assert!(cut_touching(&tubes, &g, &[far], 2.6).unwrap().is_none());
     }
 }
