@@ -8,45 +8,14 @@
 //! died keeps stale entries, which a search skips by checking the triangle as it is now.
 
 use std::collections::{HashMap, HashSet};
-use std::hash::{BuildHasherDefault, Hasher};
 
 use glam::{DVec3, I64Vec3};
 
+use super::fast_hash::FastHash;
 use super::front::Front;
 use super::surface::Surface;
 use crate::error::Result;
 use crate::mesh::TriMesh;
-
-/// Multiply-rotate hashing of integer keys (as in Firefox's FxHash): SipHash's defence against
-/// chosen keys buys nothing for grid cells and vertex ids, and its cost was a third of a search.
-#[derive(Default, Clone, Copy)]
-struct IntegerHasher(u64);
-
-impl Hasher for IntegerHasher {
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(u64::from(b));
-        }
-    }
-
-    fn write_u64(&mut self, n: u64) {
-        self.0 = (self.0.rotate_left(5) ^ n).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-
-    fn write_i64(&mut self, n: i64) {
-        self.write_u64(n as u64);
-    }
-
-    fn write_u32(&mut self, n: u32) {
-        self.write_u64(u64::from(n));
-    }
-
-    fn finish(&self) -> u64 {
-        self.0
-    }
-}
-
-type FastHash = BuildHasherDefault<IntegerHasher>;
 
 /// The frozen triangles of a surface by grid cell.
 #[derive(Debug, Default)]

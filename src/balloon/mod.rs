@@ -4,6 +4,7 @@
 //! become too short, always staying a closed, oriented 2-manifold — on which the forces work.
 
 mod contact_search;
+mod fast_hash;
 pub mod forces;
 mod front;
 mod inflation;

@@ -17,6 +17,7 @@ use std::fmt;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::fast_hash::FastHash;
 use super::front::Front;
 use super::surface::{next, prev, Surface, VertexState, MAX_TRIANGLES, NONE};
 use crate::error::{Error, Result};
@@ -238,7 +239,7 @@ impl Surface {
     pub fn flip_edges_for_valence(&mut self) -> usize {
         let front = Front::of(self);
         // Valences of the quads' corners, counted when first needed and kept up to date.
-        let mut valence: HashMap<u32, i64> = HashMap::new();
+        let mut valence: HashMap<u32, i64, FastHash> = HashMap::default();
         let mut flips = 0;
         for h in front.edges {
             // An earlier flip may have put another edge in this slot, standing for it or not,

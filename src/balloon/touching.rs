@@ -17,6 +17,7 @@ use std::collections::{BinaryHeap, HashMap};
 
 use glam::{DMat3, DVec3};
 
+use super::fast_hash::FastHash;
 use super::reparametrize::{covering_grid, isosurface, without_cavities};
 use crate::error::Result;
 use crate::geometry::Geometry;
@@ -137,7 +138,7 @@ fn joined_through_round_contacts(
     grid: &Geometry,
 ) -> Vec<bool> {
     // The centres of the voxel faces between each pair of basins, as moments.
-    let mut contacts: HashMap<(u32, u32), Moments> = HashMap::new();
+    let mut contacts: HashMap<(u32, u32), Moments, FastHash> = HashMap::default();
     let voxels = Grid(dims);
     for (n, &a) in basins.iter().enumerate() {
         if a == u32::MAX {
@@ -146,7 +147,11 @@ fn joined_through_round_contacts(
         for m in voxels.neighbours(n).filter(|&m| m > n) {
             let b = basins[m];
             if b != u32::MAX && b != a {
-                let centre = 0.5 * (position(n, dims) + position(m, dims));
+                let index = |v: usize| {
+                    let (i, j, k) = voxels.coordinates(v);
+                    DVec3::new(i as f64, j as f64, k as f64)
+                };
+                let centre = 0.5 * (index(n) + index(m));
                 contacts
                     .entry((a.min(b), a.max(b)))
                     .or_default()
@@ -171,14 +176,6 @@ fn joined_through_round_contacts(
         }
     }
     kept
-}
-
-fn position(n: usize, [ni, nj, _]: [usize; 3]) -> DVec3 {
-    DVec3::new(
-        (n % ni) as f64,
-        (n / ni % nj) as f64,
-        (n / (ni * nj)) as f64,
-    )
 }
 
 /// Count, sum and sum of outer products of points: their covariance.
