@@ -10,8 +10,7 @@
 use std::time::Instant;
 
 use balloonseg::balloon::{BalloonParams, Segmenter};
-use balloonseg::evaluation::{overlap_with_level_set, symmetric_distances, IndexBox};
-use balloonseg::marching_cubes::marching_cubes;
+use balloonseg::evaluation::{score_against_level_set, IndexBox, LevelSetScore};
 use balloonseg::test_data::data_dir;
 use balloonseg::{io, mesh_checks, Error, Result};
 use glam::DVec3;
@@ -69,12 +68,8 @@ fn run() -> Result<()> {
             lo: [0, 89, 0],
             hi: [level_set.dims()[0] - 1, 176, level_set.dims()[2] - 1],
         };
-        let overlap = overlap_with_level_set(&mesh, &level_set.view(), region, 3)?;
-        let reference = marching_cubes(&level_set.view(), 0.0)?;
-        let geometry = *level_set.geometry();
-        let distances = symmetric_distances(&mesh, &reference, |p| {
-            region.contains(geometry.world_to_index(p))
-        })?;
+        let LevelSetScore { overlap, distances } =
+            score_against_level_set(&mesh, &level_set.view(), region)?;
         let report = mesh_checks::check(&mesh);
         let stats = segmenter.stats();
         println!(

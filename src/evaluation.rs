@@ -138,6 +138,31 @@ impl IndexBox {
     }
 }
 
+/// A mesh against a reference level set inside a region of its grid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LevelSetScore {
+    pub overlap: Overlap,
+    /// Between `mesh` and the level set's zero surface (marching cubes), both sampled inside
+    /// the region only.
+    pub distances: SymmetricDistances,
+}
+
+/// Dice (`overlap_with_level_set` with 3³ samples per voxel) and surface distances of the
+/// closed, outward `mesh` against the zero surface of `level_set`, inside `region`.
+pub fn score_against_level_set(
+    mesh: &TriMesh,
+    level_set: &Volume<'_>,
+    region: IndexBox,
+) -> Result<LevelSetScore> {
+    let overlap = overlap_with_level_set(mesh, level_set, region, 3)?;
+    let reference = crate::marching_cubes::marching_cubes(level_set, 0.0)?;
+    let geometry = *level_set.geometry();
+    let distances = symmetric_distances(mesh, &reference, |p| {
+        region.contains(geometry.world_to_index(p))
+    })?;
+    Ok(LevelSetScore { overlap, distances })
+}
+
 /// Overlap of the closed, outward `mesh` with the inside (negative values) of `level_set`,
 /// restricted to the voxels `region` of the level set's grid, each voxel sampled at
 /// `supersampling`³ points (trilinear level set, clamped at the grid's faces).

@@ -6,7 +6,7 @@
 #![cfg(feature = "io")]
 
 use balloonseg::balloon::{BalloonParams, Segmenter};
-use balloonseg::evaluation::{overlap_with_level_set, symmetric_distances, IndexBox};
+use balloonseg::evaluation::{score_against_level_set, IndexBox, LevelSetScore};
 use balloonseg::marching_cubes::marching_cubes;
 use balloonseg::signed_distance::{signed_distance, SignedDistanceOptions};
 use balloonseg::test_data::data_dir;
@@ -198,13 +198,8 @@ fn aorta_score() -> Option<&'static AortaScore> {
             lo: [0, 89, 0],
             hi: [level_set.dims()[0] - 1, 176, level_set.dims()[2] - 1],
         };
-        let overlap = overlap_with_level_set(&mesh, &level_set.view(), region, 3).unwrap();
-        let reference = marching_cubes(&level_set.view(), 0.0).unwrap();
-        let geometry = *level_set.geometry();
-        let distances = symmetric_distances(&mesh, &reference, |p| {
-            region.contains(geometry.world_to_index(p))
-        })
-        .unwrap();
+        let LevelSetScore { overlap, distances } =
+            score_against_level_set(&mesh, &level_set.view(), region).unwrap();
         eprintln!(
             "aorta: Dice {:.4} (volumes mesh {:.0}, reference {:.0} mm³), MSSD {:.3} mm, HD95 \
              {:.3} mm, {:?}",

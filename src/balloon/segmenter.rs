@@ -203,8 +203,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         mesh.append(&sphere.to_mesh()?)?;
         let mut surface = Surface::from_mesh(&mesh)?;
         surface.states_mut()[..states.len()].copy_from_slice(&states);
-        self.surface = surface;
-        self.index_surface();
+        self.replace_surface(surface);
         self.seeds.push(seed);
         Ok(())
     }
@@ -356,6 +355,12 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         self.frozen = FrozenTriangles::new(&self.surface, SEARCH_CELLS * self.edge_length);
     }
 
+    /// The balloon from now on: `surface`, with its index of frozen triangles.
+    fn replace_surface(&mut self, surface: Surface) {
+        self.surface = surface;
+        self.index_surface();
+    }
+
     /// Freezes the vertices of every triangle that intersects another (paper, section 3), and
     /// the rest of each moving front that touched the balloon (frozen at the border, so that it
     /// does not grow on inside the balloon's own interior until re-parametrisation merges the
@@ -438,8 +443,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         let repaired = self
             .pool
             .install(|| reparametrize(&mesh, &states, &geometry))?;
-        self.surface = Surface::from_mesh(&repaired)?;
-        self.index_surface();
+        self.replace_surface(Surface::from_mesh(&repaired)?);
         self.stats.reparametrizations += 1;
         self.stats
             .seconds
@@ -493,9 +497,9 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .pool
             .install(|| cut_touching(&mesh, &geometry, seeds, radius))?
         {
-            self.surface = Surface::from_mesh(&cut)?;
-            self.surface.states_mut().fill(VertexState::FrozenAtBorder);
-            self.index_surface();
+            let mut surface = Surface::from_mesh(&cut)?;
+            surface.states_mut().fill(VertexState::FrozenAtBorder);
+            self.replace_surface(surface);
         }
         self.stats
             .seconds
