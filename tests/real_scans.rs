@@ -5,7 +5,7 @@
 
 #![cfg(feature = "io")]
 
-use balloonseg::balloon::{BalloonParams, Segmenter};
+use balloonseg::balloon::{BalloonParams, Segmenter, VertexState};
 use balloonseg::evaluation::{score_against_level_set, IndexBox, LevelSetScore};
 use balloonseg::marching_cubes::marching_cubes;
 use balloonseg::signed_distance::{signed_distance, SignedDistanceOptions};
@@ -179,6 +179,7 @@ fn point_triangle_distance(p: DVec3, [a, b, c]: [DVec3; 3]) -> f64 {
 /// reference inside its rows y = 89…176 (all x, all z); computed once for the tests below.
 struct AortaScore {
     mesh: balloonseg::TriMesh,
+    states: Vec<VertexState>,
     dice: f64,
     mean_distance: f64,
     hd95: f64,
@@ -192,7 +193,7 @@ fn aorta_score() -> Option<&'static AortaScore> {
         let image = io::read_image(&dir.join("vmtk-aorta/aorta.mha")).unwrap();
         let seed = DVec3::new(-221.484, -156.445, 22.501);
         let mut segmenter = Segmenter::new(image.view(), BalloonParams::default(), seed).unwrap();
-        let (mesh, _) = segmenter.segment().unwrap();
+        let (mesh, states) = segmenter.segment().unwrap();
         let level_set = aorta_level_set().unwrap();
         let region = IndexBox {
             lo: [0, 89, 0],
@@ -212,6 +213,7 @@ fn aorta_score() -> Option<&'static AortaScore> {
         );
         AortaScore {
             mesh,
+            states,
             dice: overlap.dice(),
             mean_distance: distances.mean(),
             hd95: distances.hd95(),
@@ -231,6 +233,29 @@ fn aorta_balloon_is_one_valid_genus_zero_surface_overlapping_vmtks() {
     assert_eq!(report.genus(), Some(0), "{report:?}");
     assert!(score.dice >= 0.97, "Dice {}", score.dice);
     assert!(score.hd95 <= 0.9, "HD95 {}", score.hd95);
+}
+
+#[test]
+fn aorta_final_states_are_those_of_the_balloon_not_all_moving() {
+    // Regression: on the aorta the last re-parametrisation's surface is the output, and its
+    // vertices all read as moving.
+    let Some(score) = aorta_score() else {
+        return;
+    };
+    assert_eq!(score.states.len(), score.mesh.points().len());
+    let moving = score
+        .states
+        .iter()
+        .filter(|&&s| s == VertexState::Moving)
+        .count();
+    assert!(
+        moving * 10 < score.states.len(),
+        "{moving} of {} moving",
+        score.states.len()
+    );
+    assert!(!score
+        .states
+        .contains(&VertexState::FrozenBySelfIntersection));
 }
 
 #[test]

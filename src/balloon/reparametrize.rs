@@ -10,8 +10,11 @@
 //! surface, all marching cubes needs; the refinement that follows fits the new surface to the
 //! image again.
 
-use glam::DVec3;
+use std::collections::HashMap;
 
+use glam::{DVec3, I64Vec3};
+
+use super::fast_hash::FastHash;
 use super::surface::VertexState;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
@@ -75,6 +78,45 @@ pub(crate) fn reparametrize(
         isosurface(field, dims, &grid, 0.0)?,
         voxel,
     ))
+}
+
+/// States for the vertices of `new`, the re-parametrised surface of `old` (whose vertices
+/// have `states`), when the new surface is final and will not be refined: each vertex takes
+/// the state of the nearest old vertex within `reach` (mm), so that parts of the balloon that
+/// were still moving say so; a contact, resolved by the re-parametrisation, becomes
+/// `FrozenAtBorder`, as does a vertex with no old vertex that near (where the closing filled a
+/// gap, the balloon stopped on both sides of it).
+pub(super) fn inherited_states(
+    old: &TriMesh,
+    states: &[VertexState],
+    new: &TriMesh,
+    reach: f64,
+) -> Vec<VertexState> {
+    let cell = |p: DVec3| (p / reach).floor().as_i64vec3();
+    let mut cells: HashMap<I64Vec3, Vec<u32>, FastHash> = HashMap::default();
+    for (v, &p) in old.points().iter().enumerate() {
+        cells.entry(cell(p)).or_default().push(v as u32);
+    }
+    new.points()
+        .iter()
+        .map(|&p| {
+            let home = cell(p);
+            let mut nearest = (reach * reach, VertexState::FrozenAtBorder);
+            let block = (0..27).map(|n| home + I64Vec3::new(n % 3 - 1, n / 3 % 3 - 1, n / 9 - 1));
+            for c in block {
+                for &v in cells.get(&c).into_iter().flatten() {
+                    let d2 = old.points()[v as usize].distance_squared(p);
+                    if d2 < nearest.0 {
+                        nearest = (d2, states[v as usize]);
+                    }
+                }
+            }
+            match nearest.1 {
+                VertexState::Moving => VertexState::Moving,
+                _ => VertexState::FrozenAtBorder,
+            }
+        })
+        .collect()
 }
 
 /// The surface `field = level` (outward: the field grows outward).
@@ -198,6 +240,44 @@ mod tests {
             "{}",
             report.signed_volume
         );
+    }
+
+    #[test]
+    fn a_final_surface_says_where_the_balloon_was_still_moving() {
+        // Regression: the final marching-cubes surface used to report every vertex as moving.
+        let mesh = two_overlapping_spheres();
+        let pairs = crate::self_intersection::self_intersections(&mesh);
+        let mut states: Vec<VertexState> = mesh
+            .points()
+            .iter()
+            .map(|p| {
+                if p.x < -3.0 {
+                    VertexState::Moving
+                } else {
+                    VertexState::FrozenAtBorder
+                }
+            })
+            .collect();
+        for (a, b) in pairs {
+            for t in [a, b] {
+                for v in mesh.triangles()[t as usize] {
+                    states[v as usize] = VertexState::FrozenBySelfIntersection;
+                }
+            }
+        }
+        let g = Geometry::with_spacing([0.5, 0.5, 0.7], [0.0; 3]).unwrap();
+        let merged = reparametrize(&mesh, &states, &g).unwrap();
+        let inherited = inherited_states(&mesh, &states, &merged, 1.4);
+        assert_eq!(inherited.len(), merged.points().len());
+        for (p, state) in merged.points().iter().zip(&inherited) {
+            // Half a voxel of slack each side of x = -3 for the marching-cubes positions.
+            if p.x < -3.3 {
+                assert_eq!(*state, VertexState::Moving, "{p}");
+            } else if p.x > -2.7 {
+                assert_eq!(*state, VertexState::FrozenAtBorder, "{p}");
+            }
+        }
+        assert!(!inherited.contains(&VertexState::FrozenBySelfIntersection));
     }
 
     #[test]

@@ -22,7 +22,7 @@ use super::forces::IntensityWindow;
 use super::front::Front;
 use super::inflation::{Scratch, StepReport, Stepper};
 use super::params::BalloonParams;
-use super::reparametrize::reparametrize;
+use super::reparametrize::{inherited_states, reparametrize};
 use super::seed_statistics::{self, SeedStatistics};
 use super::surface::{Surface, VertexState};
 use super::touching::cut_touching;
@@ -39,6 +39,13 @@ const COLLAPSE_BELOW: f64 = 0.6;
 /// Steps between two remeshings: at three quarters of a voxel per step (the default step
 /// fraction) an edge of the growing balloon stretches by well under half its length in between.
 const REMESH_INTERVAL: u32 = 2;
+/// Whether the balloon is refined after a re-parametrisation, or the new surface is final.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum AfterReparametrization {
+    Refinement,
+    Nothing,
+}
+
 /// Equilibrium when no vertex moved more than this fraction of the step size.
 const STILL: f64 = 1e-3;
 /// Steps over which the enclosed volume must grow by a voxel for the balloon to count as
@@ -429,13 +436,15 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     /// Replaces the balloon by the zero isosurface of its signed distance map, without the
     /// self-intersecting triangles (paper, section 3). Every vertex moves again afterwards.
     pub fn reparametrize(&mut self) -> Result<()> {
-        self.replace_by_isosurface()?;
+        self.replace_by_isosurface(AfterReparametrization::Refinement)?;
         self.remesh()
     }
 
     /// [`Self::reparametrize`] without the remeshing, whose splits and collapses could make
-    /// new contacts: the marching-cubes surface as it is.
-    fn replace_by_isosurface(&mut self) -> Result<()> {
+    /// new contacts: the marching-cubes surface as it is. Before a refinement every vertex
+    /// moves; a final surface keeps the states of the balloon it replaces
+    /// (`inherited_states`), so that what was still moving says so.
+    fn replace_by_isosurface(&mut self, next: AfterReparametrization) -> Result<()> {
         let start = Instant::now();
         self.report(0.75, Phase::Reparametrization)?;
         let (mesh, states) = self.mesh();
@@ -443,7 +452,13 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         let repaired = self
             .pool
             .install(|| reparametrize(&mesh, &states, &geometry))?;
-        self.replace_surface(Surface::from_mesh(&repaired)?);
+        let mut surface = Surface::from_mesh(&repaired)?;
+        if next == AfterReparametrization::Nothing {
+            let largest_spacing = geometry.spacing().into_iter().fold(0.0, f64::max);
+            let inherited = inherited_states(&mesh, &states, &repaired, 2.0 * largest_spacing);
+            surface.states_mut().copy_from_slice(&inherited);
+        }
+        self.replace_surface(surface);
         self.stats.reparametrizations += 1;
         self.stats
             .seconds
@@ -560,7 +575,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                 )));
             }
             self.freeze_self_intersections()?;
-            self.replace_by_isosurface()?;
+            self.replace_by_isosurface(AfterReparametrization::Nothing)?;
             repaired = true;
         }
     }
