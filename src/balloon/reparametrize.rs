@@ -209,12 +209,10 @@ mod tests {
         a
     }
 
-    #[test]
-    fn overlapping_lobes_merge_into_one_valid_surface() {
-        let mesh = two_overlapping_spheres();
-        let pairs = crate::self_intersection::self_intersections(&mesh);
+    /// Marks the vertices of the mesh's intersecting triangles, as the balloon does.
+    fn freeze_contacts(mesh: &TriMesh, states: &mut [VertexState]) {
+        let pairs = crate::self_intersection::self_intersections(mesh);
         assert!(!pairs.is_empty());
-        let mut states = vec![VertexState::Moving; mesh.points().len()];
         for (a, b) in pairs {
             for t in [a, b] {
                 for v in mesh.triangles()[t as usize] {
@@ -222,6 +220,13 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn overlapping_lobes_merge_into_one_valid_surface() {
+        let mesh = two_overlapping_spheres();
+        let mut states = vec![VertexState::Moving; mesh.points().len()];
+        freeze_contacts(&mesh, &mut states);
         let g = Geometry::with_spacing([0.5, 0.5, 0.7], [0.0; 3]).unwrap();
         let merged = reparametrize(&mesh, &states, &g).unwrap();
         let report = mesh_checks::check(&merged);
@@ -246,7 +251,6 @@ mod tests {
     fn a_final_surface_says_where_the_balloon_was_still_moving() {
         // Regression: the final marching-cubes surface used to report every vertex as moving.
         let mesh = two_overlapping_spheres();
-        let pairs = crate::self_intersection::self_intersections(&mesh);
         let mut states: Vec<VertexState> = mesh
             .points()
             .iter()
@@ -258,13 +262,7 @@ mod tests {
                 }
             })
             .collect();
-        for (a, b) in pairs {
-            for t in [a, b] {
-                for v in mesh.triangles()[t as usize] {
-                    states[v as usize] = VertexState::FrozenBySelfIntersection;
-                }
-            }
-        }
+        freeze_contacts(&mesh, &mut states);
         let g = Geometry::with_spacing([0.5, 0.5, 0.7], [0.0; 3]).unwrap();
         let merged = reparametrize(&mesh, &states, &g).unwrap();
         let inherited = inherited_states(&mesh, &states, &merged, 1.4);
