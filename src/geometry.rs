@@ -131,6 +131,10 @@ impl Geometry {
     pub fn min_spacing(&self) -> f64 {
         self.spacing[0].min(self.spacing[1]).min(self.spacing[2])
     }
+
+    pub fn max_spacing(&self) -> f64 {
+        self.spacing[0].max(self.spacing[1]).max(self.spacing[2])
+    }
 }
 
 #[cfg(test)]

@@ -252,6 +252,7 @@ struct Grid {
     origin: DVec3,
     inverse_size: f64,
     packing: Packing,
+    /// `packing.axis_max()`, kept for `cell`, the innermost call of the table's making.
     axis_max: u32,
 }
 

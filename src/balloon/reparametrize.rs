@@ -60,8 +60,8 @@ pub(crate) fn reparametrize(
     // voxel away at most; the sign comes from the winding numbers everywhere.
     let options = SignedDistanceOptions { band_voxels: 1.0 };
     let spacing = geometry.spacing();
-    let largest = spacing.iter().copied().fold(0.0, f64::max);
-    let smallest = spacing.iter().copied().fold(f64::INFINITY, f64::min);
+    let largest = geometry.max_spacing();
+    let smallest = geometry.min_spacing();
     let radius = CLOSING_VOXELS * largest;
     // The closing's ball reaches this many voxels along the finest axis; beyond it the grid
     // needs one voxel outside the dilated balloon.

@@ -160,7 +160,7 @@ fn edge_intensity(
 fn neighbourhood(volume: &Volume<'_>, centre: DVec3) -> Result<(f64, f64)> {
     let geometry = volume.geometry();
     let spacing = DVec3::from(geometry.spacing());
-    let radius_mm = 2.0 * spacing.max_element();
+    let radius_mm = 2.0 * geometry.max_spacing();
     let reach = (DVec3::splat(radius_mm) / spacing).ceil();
     let dims = volume.dims();
     let mut values = Vec::new();

@@ -39,13 +39,6 @@ const COLLAPSE_BELOW: f64 = 0.6;
 /// Steps between two remeshings: at three quarters of a voxel per step (the default step
 /// fraction) an edge of the growing balloon stretches by well under half its length in between.
 const REMESH_INTERVAL: u32 = 2;
-/// Whether the balloon is refined after a re-parametrisation, or the new surface is final.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum AfterReparametrization {
-    Refinement,
-    Nothing,
-}
-
 /// Equilibrium when no vertex moved more than this fraction of the step size.
 const STILL: f64 = 1e-3;
 /// Steps over which the enclosed volume must grow by a voxel for the balloon to count as
@@ -58,6 +51,13 @@ const TOUCHING_EDGE_LENGTHS: f64 = 2.5;
 /// Cell size, in target edge lengths, of the grid that finds the triangles near the moving
 /// front for the self-intersection search: about the size of a triangle's box.
 const SEARCH_CELLS: f64 = 2.0;
+
+/// Whether the balloon is refined after a re-parametrisation, or the new surface is final.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum AfterReparametrization {
+    Refinement,
+    Nothing,
+}
 
 /// The phase a segmenter is in, as progress callbacks see it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -454,8 +454,8 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .install(|| reparametrize(&mesh, &states, &geometry))?;
         let mut surface = Surface::from_mesh(&repaired)?;
         if next == AfterReparametrization::Nothing {
-            let largest_spacing = geometry.spacing().into_iter().fold(0.0, f64::max);
-            let inherited = inherited_states(&mesh, &states, &repaired, 2.0 * largest_spacing);
+            let reach = 2.0 * geometry.max_spacing();
+            let inherited = inherited_states(&mesh, &states, &repaired, reach);
             surface.states_mut().copy_from_slice(&inherited);
         }
         self.replace_surface(surface);
