@@ -816,7 +816,8 @@ mod tests {
         let everything = Aabb::new(DVec3::splat(-f64::MAX), DVec3::splat(f64::MAX));
         let boxes = [everything, unit(DVec3::ZERO), everything];
         assert_eq!(overlapping_pairs(&boxes, |_, _| true), brute_force(&boxes));
-        // Unit boxes 10^9 cells apart: more cells than the entries can name, so the grid gets larger cells.
+        // Unit boxes 10^9 cells apart: more cells than the entries can name, so the grid gets
+        // larger cells.
         let far: Vec<Aabb> = (0..50)
             .map(|i| unit(DVec3::new(i as f64 * 1e9, (i % 3) as f64 * 0.5, 0.0)))
             .chain((0..50).map(|i| unit(DVec3::new(i as f64 * 0.5, 0.0, 0.0))))
