@@ -414,7 +414,8 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     /// distance map. Left moving, the part of the front that passed the contact would go on
     /// inflating inside the balloon's own interior, along the whole structure (on the aorta,
     /// doubling the balloon's volume in overlapping lobes and making contacts all along).
-    /// Re-parametrisation merges the lobes, and refinement lets the whole front move again.
+    /// Re-parametrisation merges the lobes, and refinement lets the front move on where it is
+    /// still inside the window.
     /// Returns how many vertices it froze.
     fn freeze_fronts(&mut self, mut seeds: Vec<u32>) -> usize {
         let mut frozen = 0;
@@ -434,15 +435,16 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     }
 
     /// Replaces the balloon by the zero isosurface of its signed distance map, without the
-    /// self-intersecting triangles (paper, section 3). Every vertex moves again afterwards.
+    /// self-intersecting triangles (paper, section 3). Its vertices inside the intensity window
+    /// move again afterwards; those outside it stay (`freeze_outside_window`).
     pub fn reparametrize(&mut self) -> Result<()> {
         self.replace_by_isosurface(AfterReparametrization::Refinement)?;
         self.remesh()
     }
 
     /// [`Self::reparametrize`] without the remeshing, whose splits and collapses could make
-    /// new contacts: the marching-cubes surface as it is. Before a refinement every vertex
-    /// moves; a final surface keeps the states of the balloon it replaces
+    /// new contacts: the marching-cubes surface as it is. Before a refinement the vertices
+    /// inside the window move; a final surface keeps the states of the balloon it replaces
     /// (`inherited_states`), so that what was still moving says so.
     fn replace_by_isosurface(&mut self, next: AfterReparametrization) -> Result<()> {
         let start = Instant::now();
@@ -453,10 +455,13 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .pool
             .install(|| reparametrize(&mesh, &states, &geometry))?;
         let mut surface = Surface::from_mesh(&repaired)?;
-        if next == AfterReparametrization::Nothing {
-            let reach = 2.0 * geometry.max_spacing();
-            let inherited = inherited_states(&mesh, &states, &repaired, reach);
-            surface.states_mut().copy_from_slice(&inherited);
+        match next {
+            AfterReparametrization::Nothing => {
+                let reach = 2.0 * geometry.max_spacing();
+                let inherited = inherited_states(&mesh, &states, &repaired, reach);
+                surface.states_mut().copy_from_slice(&inherited);
+            }
+            AfterReparametrization::Refinement => self.freeze_outside_window(&mut surface),
         }
         self.replace_surface(surface);
         self.stats.reparametrizations += 1;
@@ -464,6 +469,24 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .seconds
             .add(Phase::Reparametrization, start.elapsed().as_secs_f64());
         Ok(())
+    }
+
+    /// Freezes the vertices of a new surface that lie outside the intensity window; the others
+    /// move on to the border. Where two lumens meet across a saddle below the border (the
+    /// aorta's renal arteries), the merged surface bridges the saddle: pulled in, the bridge
+    /// deflated from both sides until they passed through each other, and the same contact
+    /// came back after every re-parametrisation.
+    fn freeze_outside_window(&self, surface: &mut Surface) {
+        let (positions, states) = surface.positions_and_states_mut();
+        for (p, state) in positions.iter().zip(states) {
+            let inside = self
+                .volume
+                .sample_world(*p)
+                .is_some_and(|v| self.window.contains(v));
+            if !inside {
+                *state = VertexState::FrozenAtBorder;
+            }
+        }
     }
 
     fn has_self_intersections(&self) -> bool {
@@ -615,6 +638,43 @@ mod tests {
         assert!(report.is_valid_closed_surface(), "{report:?}");
         assert!(stats.reparametrizations >= 1, "{stats:?}");
         assert_eq!(report.genus(), Some(1), "{report:?} {stats:?}");
+    }
+
+    #[test]
+    fn a_new_surface_moves_only_where_it_is_inside_the_window() {
+        // The rule that stops the aorta's renal contacts from coming back: the new surface is
+        // not pulled in where it bridges a saddle below the border.
+        let p = phantom::render(Shape::Torus, &PhantomOptions::default()).unwrap();
+        let mut s =
+            Segmenter::new(p.image.view(), BalloonParams::default(), p.seed_world()).unwrap();
+        s.step(400).unwrap();
+        s.freeze_self_intersections().unwrap();
+        assert!(
+            s.has_self_intersections(),
+            "the torus should have met itself"
+        );
+        s.replace_by_isosurface(AfterReparametrization::Refinement)
+            .unwrap();
+        let (mut inside, mut outside) = (0, 0);
+        for v in s.surface.live_vertices() {
+            let p = s.surface.positions()[v as usize];
+            let in_window = s
+                .volume
+                .sample_world(p)
+                .is_some_and(|i| s.window.contains(i));
+            let state = s.surface.states()[v as usize];
+            if in_window {
+                inside += 1;
+                assert_eq!(state, VertexState::Moving, "{p}");
+            } else {
+                outside += 1;
+                assert_eq!(state, VertexState::FrozenAtBorder, "{p}");
+            }
+        }
+        assert!(
+            inside > 0 && outside > 0,
+            "{inside} inside, {outside} outside"
+        );
     }
 
     #[test]
