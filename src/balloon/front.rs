@@ -36,20 +36,20 @@ impl Front {
             .extend((0..surface.vertex_slots() as u32).filter(|&v| {
                 surface.states()[v as usize] == VertexState::Moving && surface.is_vertex_live(v)
             }));
-        self.triangles.clear();
+        let mut triangles = SlotSet::new(surface.triangle_slots());
         for &v in &self.vertices {
-            self.triangles
-                .extend(surface.outgoing_half_edges(v).map(|h| h / 3));
+            for h in surface.outgoing_half_edges(v) {
+                triangles.insert(h / 3);
+            }
         }
-        self.triangles.sort_unstable();
-        self.triangles.dedup();
-        self.edges.clear();
+        triangles.ascending_into(&mut self.triangles);
+        let mut edges = SlotSet::new(3 * surface.triangle_slots());
         for &t in &self.triangles {
-            self.edges
-                .extend((3 * t..3 * t + 3).map(|h| surface.edge_representative(h)));
+            for h in 3 * t..3 * t + 3 {
+                edges.insert(surface.edge_representative(h));
+            }
         }
-        self.edges.sort_unstable();
-        self.edges.dedup();
+        edges.ascending_into(&mut self.edges);
     }
 
     /// The corners of the front's triangles, with repeats: the moving vertices and their
@@ -58,6 +58,37 @@ impl Front {
         self.triangles
             .iter()
             .flat_map(|&t| surface.triangle(t).expect("front triangles are live"))
+    }
+}
+
+/// A set of slot ids as a bit per slot: the front's triangles and edges come out ascending
+/// and without repeats in one pass over the words. Sorting the ids with their repeats (six
+/// triangles per vertex, three edges per triangle) took 12% of the aorta's instructions.
+struct SlotSet {
+    words: Vec<u64>,
+}
+
+impl SlotSet {
+    fn new(slots: usize) -> SlotSet {
+        SlotSet {
+            words: vec![0; slots.div_ceil(64)],
+        }
+    }
+
+    fn insert(&mut self, slot: u32) {
+        self.words[(slot / 64) as usize] |= 1 << (slot % 64);
+    }
+
+    /// Replaces `out` by the set's slots, ascending.
+    fn ascending_into(&self, out: &mut Vec<u32>) {
+        out.clear();
+        for (w, &word) in self.words.iter().enumerate() {
+            let mut bits = word;
+            while bits != 0 {
+                out.push(64 * w as u32 + bits.trailing_zeros());
+                bits &= bits - 1;
+            }
+        }
     }
 }
 
@@ -100,5 +131,16 @@ mod tests {
             })
             .collect();
         assert_eq!(found, expected);
+    }
+
+    #[test]
+    fn slot_sets_come_out_ascending_without_repeats_across_words() {
+        let mut set = SlotSet::new(200);
+        for slot in [130, 0, 64, 63, 199, 64, 1, 130] {
+            set.insert(slot);
+        }
+        let mut out = vec![7];
+        set.ascending_into(&mut out);
+        assert_eq!(out, [0, 1, 63, 64, 130, 199]);
     }
 }

@@ -569,13 +569,17 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         Ok(limit)
     }
 
-    /// The current mesh if it meets the guarantees; otherwise one more re-parametrisation
-    /// (without refinement or remeshing: a marching-cubes surface has no contacts), checked
-    /// again.
+    /// The current mesh if it meets the guarantees; otherwise (or straight away if it stopped
+    /// with contacts) one more re-parametrisation, without refinement or remeshing — a
+    /// marching-cubes surface has no contacts — checked again.
     fn validated(&mut self) -> Result<(TriMesh, Vec<VertexState>)> {
         let start = Instant::now();
         self.report(0.95, Phase::Validation)?;
-        let mut repaired = false;
+        // A balloon that stopped with contacts cannot pass: repair it without measuring it.
+        let mut repaired = self.has_self_intersections();
+        if repaired {
+            self.replace_by_isosurface(AfterReparametrization::Nothing)?;
+        }
         loop {
             let (mesh, states) = self.mesh();
             let report = mesh_checks::check(&mesh);

@@ -135,6 +135,14 @@ impl Surface {
                 mesh.triangles().len()
             )));
         }
+        match Surface::linked(mesh.points().to_vec(), mesh.triangles().to_vec()) {
+            Some(surface) => surface.with_valence_checked(),
+            None => Err(Self::why_not_a_surface(mesh)),
+        }
+    }
+
+    /// The error for a mesh that [`Surface::linked`] refused, naming every kind of problem.
+    fn why_not_a_surface(mesh: &TriMesh) -> Error {
         let r = mesh_checks::check(mesh);
         let problems: Vec<String> = [
             (r.degenerate_triangles, "triangles repeat a vertex (remove them)"),
@@ -148,17 +156,31 @@ impl Surface {
         .filter(|(count, _)| *count > 0)
         .map(|(count, what)| format!("{count} {what}"))
         .collect();
-        if !problems.is_empty() {
-            return Err(Error::invalid_mesh(format!(
-                "the balloon surface needs a closed, manifold, consistently oriented mesh: {}",
-                problems.join("; ")
-            )));
-        }
-        Surface::build(mesh.points().to_vec(), mesh.triangles().to_vec())
+        Error::invalid_mesh(format!(
+            "the balloon surface needs a closed, manifold, consistently oriented mesh: {}",
+            problems.join("; ")
+        ))
     }
 
-    /// Links the half-edges of a mesh already known to be closed, manifold and oriented.
+    /// Links the half-edges of a mesh known to be closed, manifold and oriented.
     fn build(positions: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> Result<Surface> {
+        Surface::linked(positions, triangles)
+            .ok_or_else(|| Error::internal("a generated mesh is not a closed oriented manifold"))?
+            .with_valence_checked()
+    }
+
+    /// Links the half-edges, checking on the way everything [`Surface::from_mesh`] requires
+    /// (so that the marching-cubes surface of every re-parametrisation is not measured twice):
+    /// `None` if a triangle repeats a vertex, a directed edge occurs twice (a non-manifold or
+    /// inconsistently oriented edge) or has no opposite (a boundary), a point is unused, or a
+    /// vertex's fan does not reach all of its half-edges (a non-manifold vertex).
+    fn linked(positions: Vec<DVec3>, triangles: Vec<[u32; 3]>) -> Option<Surface> {
+        if triangles
+            .iter()
+            .any(|&[a, b, c]| a == b || b == c || a == c)
+        {
+            return None;
+        }
         let directed_key = |a: u32, b: u32| (u64::from(a) << 32) | u64::from(b);
         let mut directed: Vec<(u64, u32)> = triangles
             .iter()
@@ -168,19 +190,25 @@ impl Surface {
             })
             .collect();
         directed.par_sort_unstable();
+        if directed.windows(2).any(|w| w[0].0 == w[1].0) {
+            return None;
+        }
         let mut twins = vec![NONE; directed.len()];
         let mut outgoing = vec![NONE; positions.len()];
+        let mut leaving = vec![0u32; positions.len()];
         for &(key, h) in &directed {
             let (a, b) = ((key >> 32) as u32, key as u32);
             let g = directed
                 .binary_search_by_key(&directed_key(b, a), |&(k, _)| k)
-                .map_err(|_| {
-                    Error::invalid_mesh(format!("edge {a}–{b} has no opposite half-edge"))
-                })?;
+                .ok()?;
             twins[h as usize] = directed[g].1;
             if outgoing[a as usize] == NONE {
                 outgoing[a as usize] = h;
             }
+            leaving[a as usize] += 1;
+        }
+        if outgoing.contains(&NONE) {
+            return None;
         }
         let surface = Surface {
             states: vec![VertexState::Moving; positions.len()],
@@ -192,15 +220,21 @@ impl Surface {
             twins,
             rewritten: None,
         };
+        let one_fan = (0..leaving.len() as u32)
+            .all(|v| surface.outgoing_half_edges(v).count() == leaving[v as usize] as usize);
+        one_fan.then_some(surface)
+    }
+
+    fn with_valence_checked(self) -> Result<Surface> {
         // A vertex of valence two sits between two triangles with the same three corners (a
         // two-triangle "pillow"), which no edge operation can handle.
-        if let Some(v) = surface.live_vertices().find(|&v| surface.valence(v) < 3) {
+        if let Some(v) = self.live_vertices().find(|&v| self.valence(v) < 3) {
             return Err(Error::invalid_mesh(format!(
                 "vertex {v} has fewer than three neighbours (two triangles share all three \
                  corners); remove such two-triangle components"
             )));
         }
-        Ok(surface)
+        Ok(self)
     }
 
     /// The live part as an indexed mesh: vertices in slot order, then triangles in slot order.
