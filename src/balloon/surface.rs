@@ -181,35 +181,48 @@ impl Surface {
         {
             return None;
         }
-        let directed_key = |a: u32, b: u32| (u64::from(a) << 32) | u64::from(b);
-        let mut directed: Vec<(u64, u32)> = triangles
-            .iter()
-            .enumerate()
-            .flat_map(|(t, tri)| {
-                (0..3).map(move |i| (directed_key(tri[i], tri[(i + 1) % 3]), (3 * t + i) as u32))
-            })
-            .collect();
-        directed.par_sort_unstable();
-        if directed.windows(2).any(|w| w[0].0 == w[1].0) {
-            return None;
-        }
-        let mut twins = vec![NONE; directed.len()];
-        let mut outgoing = vec![NONE; positions.len()];
-        let mut leaving = vec![0u32; positions.len()];
-        for &(key, h) in &directed {
-            let (a, b) = ((key >> 32) as u32, key as u32);
-            let g = directed
-                .binary_search_by_key(&directed_key(b, a), |&(k, _)| k)
-                .ok()?;
-            twins[h as usize] = directed[g].1;
-            if outgoing[a as usize] == NONE {
-                outgoing[a as usize] = h;
+        // The half-edges leaving each vertex with their destinations, as compressed rows in
+        // half-edge order: a twin is found among the few half-edges leaving the other end,
+        // without sorting them all.
+        let half_edges = 3 * triangles.len();
+        let mut start = vec![0u32; positions.len() + 1];
+        for tri in &triangles {
+            for &v in tri {
+                start[v as usize + 1] += 1;
             }
-            leaving[a as usize] += 1;
         }
-        if outgoing.contains(&NONE) {
-            return None;
+        for v in 0..positions.len() {
+            start[v + 1] += start[v];
         }
+        let mut fill = start.clone();
+        let mut leaving = vec![(0u32, 0u32); half_edges];
+        for (t, tri) in triangles.iter().enumerate() {
+            for i in 0..3 {
+                let a = tri[i] as usize;
+                leaving[fill[a] as usize] = (tri[(i + 1) % 3], (3 * t + i) as u32);
+                fill[a] += 1;
+            }
+        }
+        let row = |v: u32| &leaving[start[v as usize] as usize..start[v as usize + 1] as usize];
+        let mut twins = vec![NONE; half_edges];
+        for a in 0..positions.len() as u32 {
+            for &(b, h) in row(a) {
+                let mut opposite = row(b).iter().filter(|&&(c, _)| c == a);
+                let (Some(&(_, g)), None) = (opposite.next(), opposite.next()) else {
+                    return None;
+                };
+                if row(a).iter().filter(|&&(c, _)| c == b).count() != 1 {
+                    return None;
+                }
+                twins[h as usize] = g;
+            }
+        }
+        // Each vertex starts its fan at its edge to the lowest-numbered neighbour.
+        let mut outgoing = Vec::with_capacity(positions.len());
+        for v in 0..positions.len() as u32 {
+            outgoing.push(row(v).iter().min()?.1);
+        }
+        let valence: Vec<usize> = (0..positions.len() as u32).map(|v| row(v).len()).collect();
         let surface = Surface {
             states: vec![VertexState::Moving; positions.len()],
             live_vertices: positions.len(),
@@ -220,8 +233,8 @@ impl Surface {
             twins,
             rewritten: None,
         };
-        let one_fan = (0..leaving.len() as u32)
-            .all(|v| surface.outgoing_half_edges(v).count() == leaving[v as usize] as usize);
+        let one_fan = (0..valence.len() as u32)
+            .all(|v| surface.outgoing_half_edges(v).count() == valence[v as usize]);
         one_fan.then_some(surface)
     }
 
