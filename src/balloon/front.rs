@@ -8,7 +8,7 @@
 //! over the whole surface in slot order: the results do not depend on the thread count, and
 //! are the same as if the frozen parts had been visited and skipped.
 
-use super::surface::{Surface, VertexState};
+use super::surface::Surface;
 
 /// The moving part of a [`Surface`] at one moment; rebuilt with [`Front::update`] whenever
 /// the surface's connectivity or freeze states have changed.
@@ -32,10 +32,7 @@ impl Front {
 
     pub fn update(&mut self, surface: &Surface) {
         self.vertices.clear();
-        self.vertices
-            .extend((0..surface.vertex_slots() as u32).filter(|&v| {
-                surface.states()[v as usize] == VertexState::Moving && surface.is_vertex_live(v)
-            }));
+        self.vertices.extend(surface.moving_vertices());
         let mut triangles = SlotSet::new(surface.triangle_slots());
         for &v in &self.vertices {
             for h in surface.outgoing_half_edges(v) {
@@ -95,6 +92,7 @@ impl SlotSet {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::balloon::surface::VertexState;
     use glam::DVec3;
 
     #[test]

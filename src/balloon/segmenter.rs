@@ -321,10 +321,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     }
 
     fn moving_vertices(&self) -> usize {
-        self.surface
-            .live_vertices()
-            .filter(|&v| self.surface.states()[v as usize] == VertexState::Moving)
-            .count()
+        self.surface.moving_vertices().count()
     }
 
     fn remesh(&mut self) -> Result<()> {

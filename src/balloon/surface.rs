@@ -414,6 +414,14 @@ impl Surface {
         (0..self.outgoing.len() as u32).filter(|&v| self.outgoing[v as usize] != NONE)
     }
 
+    /// Live `Moving` vertex ids in increasing order: the front, rebuilt every step.
+    pub fn moving_vertices(&self) -> impl Iterator<Item = u32> + '_ {
+        (0u32..)
+            .zip(self.states.iter().zip(&self.outgoing))
+            .filter(|(_, (&state, &h))| state == VertexState::Moving && h != NONE)
+            .map(|(v, _)| v)
+    }
+
     /// Corners of triangle `t`, `None` if it is deleted or out of range.
     pub fn triangle(&self, t: u32) -> Option<[u32; 3]> {
         self.triangles
