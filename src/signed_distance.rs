@@ -5,18 +5,25 @@
 //!
 //! - Distance: exact Euclidean distance (to rounding) in world millimetres, with anisotropic
 //!   spacing and any direction matrix, by scattering each triangle over the voxels that can be
-//!   within the band of it (a ball around the triangle cut by the slab along its plane, found row
-//!   by row in index space) and keeping per voxel the minimum of the exact point–triangle
-//!   distances (`closest_point`). The exact distance is skipped where a lower bound — the
-//!   distance to the triangle's bounding sphere, then to its bounding disk — is already no less
-//!   than the voxel's current minimum (about four visits in five). Voxels farther than the band
-//!   from every triangle get the band's half-width, like OpenVDB's background value, so the
-//!   field is `sign · min(distance, band_mm)` everywhere.
+//!   within the band of it and keeping per voxel the minimum of the exact point–triangle
+//!   distances (`closest_point`). In each k-slab a triangle scans the rows that meet its ball
+//!   (around the triangle, grown by the band) and, on each row, the voxels that are both within
+//!   the ball's extent along i in that slab and within the band of the triangle's plane: bounds
+//!   linear in i, with no square root or division per row, since rows of a few voxels make the
+//!   per-row set-up as costly as the voxels. The exact distance is skipped where a lower bound —
+//!   the distance to the triangle's bounding sphere, then to its bounding disk — is already no
+//!   less than the voxel's current minimum; the sphere also rejects the voxels of the scan that
+//!   lie outside the ball. Voxels farther than the band from every triangle get the band's
+//!   half-width, like OpenVDB's background value, so the field is `sign · min(distance,
+//!   band_mm)` everywhere.
 //! - Sign: winding numbers of `inside_from` by exact ray crossings (`winding_number`), correct far
 //!   from the surface too.
 //!
-//! Work is split over k-slabs, each filled by one thread from a fixed triangle order, so the
-//! result has the same bits for any thread count.
+//! Work is split over k-slabs: one thread adds up a slab's ray crossings, scatters the triangles
+//! of the slab over it in a fixed order and applies the signs, so the result has the same bits
+//! for any thread count, no grid of winding numbers is stored, and the output's pages are first
+//! written by the threads that fill them. Per-triangle data is rebuilt in each slab rather than
+//! stored: on a balloon's grid, first touching that memory costs more than the rebuild.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -26,7 +33,7 @@ use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::mesh::TriMesh;
 use crate::volume::{Image, VoxelBuffer};
-use crate::winding_number::{index_range, voxel_count, winding_numbers, SlabBins};
+use crate::winding_number::{index_range, voxel_count, RowCrossings, SlabBins};
 
 /// Relative growth of the regions scanned per triangle, so that rounding in the region bounds
 /// never drops a voxel at exactly the band's distance; extra voxels are harmless.
@@ -96,56 +103,106 @@ pub fn signed_distance_values(
     options.validate()?;
     let len = voxel_count(dims)?;
     let band = options.band_mm(geometry);
-    let winding = winding_numbers(inside_from, dims, geometry)?;
-    let mut field = band_distance(surface, dims, len, geometry, band);
-    field
-        .par_iter_mut()
-        .zip(winding.par_iter())
-        .for_each(|(d, &w)| {
-            if w > 0 {
-                *d = -*d;
+    let [ni, nj, _] = dims;
+    let crossings = RowCrossings::new(inside_from, dims, geometry);
+    let distances = BandDistance::new(surface, dims, geometry, band);
+    // Zeroed memory is mapped lazily, so each slab's pages are first touched by the thread that
+    // fills it rather than all by this one.
+    let mut field = vec![0.0; len];
+    field.par_chunks_mut(ni * nj).enumerate().for_each_init(
+        || vec![0i32; ni * nj],
+        |counts, (k, slab)| {
+            counts.fill(0);
+            crossings.add_slab(k, counts);
+            slab.fill(band);
+            distances.fill_slab(k, slab);
+            for (row, counts) in slab.chunks_mut(ni).zip(counts.chunks(ni)) {
+                let mut winding = 0;
+                for (d, &count) in row.iter_mut().zip(counts).rev() {
+                    winding += count;
+                    if winding > 0 {
+                        *d = -*d;
+                    }
+                }
             }
-        });
+        },
+    );
     Ok(field)
 }
 
-/// Distance from every voxel centre to the nearest triangle of `surface` where that is less than
-/// `band`, and `band` elsewhere. `len` is the voxel count of the valid `dims`.
-fn band_distance(
-    surface: &TriMesh,
-    dims: [usize; 3],
-    len: usize,
-    geometry: &Geometry,
+/// A surface's triangles binned by the k-slabs their balls meet, for lowering, slab by slab,
+/// the band's half-width to the distance from each voxel centre to the nearest of them.
+struct BandDistance<'a> {
+    surface: &'a TriMesh,
+    frame: RowFrame,
+    bins: SlabBins,
+    ni: usize,
+    nj: usize,
     band: f64,
-) -> Vec<f64> {
-    let [ni, nj, nk] = dims;
-    let frame = RowFrame::new(geometry);
-    let triangles: Vec<BandTriangle> = (0..surface.triangles().len())
-        .filter_map(|t| BandTriangle::new(surface.corners(t), geometry, nk, band))
-        .collect();
-    let bins = SlabBins::new(nk, triangles.iter().map(|t| Some(t.k_range)));
-    let mut field = vec![band; len];
-    field
-        .par_chunks_mut(ni * nj)
-        .enumerate()
-        .for_each(|(k, slab)| {
-            let slab_origin = frame.origin + frame.step_k * k as f64;
-            for &t in bins.slab(k) {
-                let tri = &triangles[t as usize];
-                let Some((j0, j1)) = tri.rows(&frame, slab_origin, nj) else {
+}
+
+impl<'a> BandDistance<'a> {
+    fn new(surface: &'a TriMesh, dims: [usize; 3], geometry: &Geometry, band: f64) -> Self {
+        let [ni, nj, nk] = dims;
+        // Along index axis k a ball of radius r spans ±r·|row k of the world→index matrix|.
+        let k_per_mm = geometry.world_to_index_matrix().row(2).length();
+        let k_ranges: Vec<Option<(usize, usize)>> = (0..surface.triangles().len())
+            .into_par_iter()
+            .map(|t| {
+                let (centre, _, reach) = bounding_ball(surface.corners(t), band);
+                let k_reach = reach * k_per_mm + INDEX_SLACK;
+                let k = geometry.world_to_index(centre).z;
+                index_range(k - k_reach, k + k_reach, nk)
+            })
+            .collect();
+        BandDistance {
+            surface,
+            frame: RowFrame::new(geometry),
+            bins: SlabBins::new(nk, k_ranges.iter().copied()),
+            ni,
+            nj,
+            band,
+        }
+    }
+
+    /// Lowers the values of slab `k` (its `ni·nj` voxels, i fastest) to the distance from each
+    /// voxel to the nearest triangle where that is less.
+    fn fill_slab(&self, k: usize, slab: &mut [f64]) {
+        let (frame, ni, band) = (&self.frame, self.ni, self.band);
+        let slab_origin = frame.origin + frame.step_k * k as f64;
+        for &t in self.bins.slab(k) {
+            let tri = BandTriangle::new(self.surface.corners(t as usize), band);
+            let Some((j0, j1)) = tri.rows(frame, slab_origin, self.nj) else {
+                continue;
+            };
+            let Some(columns) = tri.columns(frame, slab_origin) else {
+                continue;
+            };
+            let strip = tri.strip(frame, slab_origin, band);
+            for j in j0..=j1 {
+                let Some((i0, i1)) = strip.interval(columns, j as f64, ni) else {
                     continue;
                 };
-                for j in j0..=j1 {
-                    let row_start = slab_origin + frame.step_j * j as f64;
-                    let Some((i0, i1)) = tri.row_interval(&frame, row_start, band, ni) else {
-                        continue;
-                    };
-                    let row = &mut slab[j * ni..(j + 1) * ni];
-                    tri.update_row(&frame, row_start, i0, &mut row[i0..=i1]);
-                }
+                let row_start = slab_origin + frame.step_j * j as f64;
+                let row = &mut slab[j * ni..(j + 1) * ni];
+                tri.update_row(frame, row_start, i0, &mut row[i0..=i1]);
             }
-        });
-    field
+        }
+    }
+}
+
+/// The centroid of a triangle, the distance from it to the farthest corner and the radius of
+/// the ball around it that holds every point within `band` of the triangle, both grown by
+/// `REGION_SLACK`.
+fn bounding_ball(corners: [DVec3; 3], band: f64) -> (DVec3, f64, f64) {
+    let [a, b, c] = corners;
+    let centre = (a + b + c) / 3.0;
+    let radius = (a - centre)
+        .length()
+        .max((b - centre).length())
+        .max((c - centre).length())
+        * (1.0 + REGION_SLACK);
+    (centre, radius, (radius + band) * (1.0 + REGION_SLACK))
 }
 
 /// The grid's axes in world space: voxel (i, j, k) is at `origin + i·step_i + j·step_j +
@@ -159,6 +216,9 @@ struct RowFrame {
     /// `step_j` without its component along the rows, and its squared length.
     step_j_across: DVec3,
     step_j_across2: f64,
+    /// `step_i` without its component along `step_j`, and its squared length.
+    step_i_across: DVec3,
+    step_i_across2: f64,
 }
 
 impl RowFrame {
@@ -167,6 +227,7 @@ impl RowFrame {
         let (step_i, step_j) = (m.x_axis, m.y_axis);
         let step_i2 = step_i.length_squared();
         let step_j_across = step_j - step_i * (step_i.dot(step_j) / step_i2);
+        let step_i_across = step_i - step_j * (step_j.dot(step_i) / step_j.length_squared());
         RowFrame {
             origin: DVec3::from(geometry.origin()),
             step_i,
@@ -175,6 +236,8 @@ impl RowFrame {
             step_i2,
             step_j_across,
             step_j_across2: step_j_across.length_squared(),
+            step_i_across,
+            step_i_across2: step_i_across.length_squared(),
         }
     }
 
@@ -197,35 +260,22 @@ struct BandTriangle {
     /// which makes the plane tests below vacuous.
     normal: DVec3,
     offset: f64,
-    k_range: (usize, usize),
 }
 
 impl BandTriangle {
-    /// `None` when the triangle's ball misses every k-slab of the grid.
-    fn new(corners: [DVec3; 3], geometry: &Geometry, nk: usize, band: f64) -> Option<Self> {
+    fn new(corners: [DVec3; 3], band: f64) -> Self {
         let [a, b, c] = corners;
         let triangle = Triangle::new(a, b, c);
-        let centre = (a + b + c) / 3.0;
-        let radius = (a - centre)
-            .length()
-            .max((b - centre).length())
-            .max((c - centre).length())
-            * (1.0 + REGION_SLACK);
-        let reach = (radius + band) * (1.0 + REGION_SLACK);
-        // Along index axis k a ball of radius r spans ±r·|row k of the world→index matrix|.
-        let k_reach = reach * geometry.world_to_index_matrix().row(2).length() + INDEX_SLACK;
-        let k = geometry.world_to_index(centre).z;
-        let k_range = index_range(k - k_reach, k + k_reach, nk)?;
+        let (centre, radius, reach) = bounding_ball(corners, band);
         let normal = triangle.normal().map_or(DVec3::ZERO, DVec3::normalize);
-        Some(BandTriangle {
+        BandTriangle {
             triangle,
             centre,
             radius,
             reach2: reach * reach,
             normal,
             offset: normal.dot(a),
-            k_range,
-        })
+        }
     }
 
     /// The rows j of the slab through `slab_origin` (its voxel (0, 0, k)) that meet the ball.
@@ -237,31 +287,26 @@ impl BandTriangle {
         index_range(lo - INDEX_SLACK, hi + INDEX_SLACK, nj)
     }
 
-    /// The voxels `i` of the row `row_start + i·step_i` that can be within `band` of the
-    /// triangle: inside its ball and inside the slab along its plane.
-    fn row_interval(
-        &self,
-        frame: &RowFrame,
-        row_start: DVec3,
-        band: f64,
-        ni: usize,
-    ) -> Option<(usize, usize)> {
-        let w = row_start - self.centre;
-        let (mut lo, mut hi) = quadratic_roots(
-            frame.step_i2,
-            frame.step_i.dot(w),
-            w.length_squared() - self.reach2,
-        )?;
-        let half = band * (1.0 + REGION_SLACK);
-        let (height, rate) = (self.height(row_start), self.normal.dot(frame.step_i));
-        if rate != 0.0 {
-            let (ta, tb) = ((-half - height) / rate, (half - height) / rate);
-            lo = lo.max(ta.min(tb));
-            hi = hi.min(ta.max(tb));
-        } else if height.abs() > half {
-            return None;
+    /// The range of `i` over which the slab through `slab_origin` meets the ball: an interval
+    /// that holds every row's chord of the ball.
+    fn columns(&self, frame: &RowFrame, slab_origin: DVec3) -> Option<(f64, f64)> {
+        // Squared distance from the centre to the line i = const, j free, of the slab.
+        let v = slab_origin - self.centre;
+        let w = v - frame.step_j * (frame.step_j.dot(v) / frame.step_j.length_squared());
+        let (a, half_b) = (frame.step_i_across2, w.dot(frame.step_i_across));
+        quadratic_roots(a, half_b, w.length_squared() - self.reach2)
+    }
+
+    /// The slab along the triangle's plane as seen by the rows of the slab through
+    /// `slab_origin`.
+    fn strip(&self, frame: &RowFrame, slab_origin: DVec3, band: f64) -> Strip {
+        let rise = self.normal.dot(frame.step_i);
+        Strip {
+            height: self.height(slab_origin),
+            rise_j: self.normal.dot(frame.step_j),
+            inv_rise: (rise != 0.0).then(|| 1.0 / rise),
+            half: band * (1.0 + REGION_SLACK),
         }
-        index_range(lo - INDEX_SLACK, hi + INDEX_SLACK, ni)
     }
 
     /// Signed distance from `p` to the triangle's plane (0 for a degenerate triangle).
@@ -297,6 +342,38 @@ impl BandTriangle {
             delta += 2.0 * step2;
             height += rise;
         }
+    }
+}
+
+/// The voxels of the rows of one k-slab within `half` of a triangle's plane: along row j the
+/// height above the plane is `height + j·rise_j + i·rise`. `REGION_SLACK` in `half` covers the
+/// rounding of these sums and of the reciprocal, which differ from a voxel's exact height.
+struct Strip {
+    height: f64,
+    rise_j: f64,
+    /// `1 / rise`, `None` for rows parallel to the plane.
+    inv_rise: Option<f64>,
+    half: f64,
+}
+
+impl Strip {
+    /// The voxels of row `j` inside both the strip and `columns` (an interval of `i`).
+    fn interval(&self, columns: (f64, f64), j: f64, ni: usize) -> Option<(usize, usize)> {
+        let (mut lo, mut hi) = columns;
+        let height = self.height + j * self.rise_j;
+        match self.inv_rise {
+            Some(inv_rise) => {
+                let (ta, tb) = (
+                    (-self.half - height) * inv_rise,
+                    (self.half - height) * inv_rise,
+                );
+                lo = lo.max(ta.min(tb));
+                hi = hi.min(ta.max(tb));
+            }
+            None if height.abs() > self.half => return None,
+            None => {}
+        }
+        index_range(lo - INDEX_SLACK, hi + INDEX_SLACK, ni)
     }
 }
 
@@ -535,6 +612,33 @@ mod tests {
         let surface = TriMesh::from_soup(&soup).unwrap();
         let closed = icosphere(at(6.0, 6.0, 5.0), 3.0, 1);
         assert_matches_brute_force(&surface, &closed, dims, &g, &Default::default());
+    }
+
+    #[test]
+    fn planes_parallel_and_nearly_parallel_to_the_rows_match_brute_force() {
+        // The band along a plane is found on each row from its rise along i, which is zero or
+        // tiny here: the cut of the band by a row is then the whole row or none of it.
+        let g = Geometry::with_spacing([0.7, 0.9, 1.3], [0.5, -1.0, 0.0]).unwrap();
+        let dims = [24, 10, 9];
+        let at = |i, j, k| g.index_to_world(DVec3::new(i, j, k));
+        for tilt in [0.0, 1e-13, 1e-9, 0.02] {
+            let (lo, hi) = (at(-2.0, 1.2, 3.7), at(26.0, 8.4, 3.7));
+            let soup = [
+                [lo, DVec3::new(hi.x, lo.y, lo.z + tilt), hi],
+                [lo, hi, DVec3::new(lo.x, hi.y, lo.z)],
+                // Parallel to the rows, across the slabs.
+                [
+                    at(-1.0, 5.5, 0.2),
+                    at(25.0, 5.5, 0.2),
+                    at(25.0, 5.5 + tilt, 8.0),
+                ],
+            ];
+            let surface = TriMesh::from_soup(&soup).unwrap();
+            let closed = cube(at(3.0, 2.0, 1.0), at(20.0, 7.0, 6.0));
+            let options = SignedDistanceOptions { band_voxels: 1.0 };
+            let in_band = assert_matches_brute_force(&surface, &closed, dims, &g, &options);
+            assert!(in_band > 200, "{in_band}");
+        }
     }
 
     #[test]

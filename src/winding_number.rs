@@ -16,6 +16,11 @@
 //! a suffix sum along the row gives, for every voxel, the signed number of crossings between it and
 //! +∞: its winding number. Rows through voxels exactly on the surface are classified by the same
 //! rule, so a voxel on a face belongs to exactly one side (half-open, like a fill rule).
+//!
+//! The crossings are added up k-slab by k-slab, one slab per thread (`RowCrossings`), which lets
+//! the signed distance turn them into signs without a grid of winding numbers. A triangle's
+//! projection is rebuilt in each slab it covers rather than stored: on a balloon's grid, first
+//! touching the memory that would hold them costs more.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -32,40 +37,14 @@ use crate::mesh::TriMesh;
 /// those of the rays along +i and are not meaningful.
 pub fn winding_numbers(mesh: &TriMesh, dims: [usize; 3], geometry: &Geometry) -> Result<Vec<i32>> {
     let len = voxel_count(dims)?;
-    let [ni, nj, nk] = dims;
-    let index_points: Vec<DVec3> = mesh
-        .points()
-        .iter()
-        .map(|&p| geometry.world_to_index(p))
-        .collect();
-    // A mirroring index map turns an outward mesh inward, which flips every crossing's sign.
-    let facing = if geometry.is_left_handed() { -1 } else { 1 };
-    let projected: Vec<ProjectedTriangle> = mesh
-        .triangles()
-        .iter()
-        .filter_map(|t| ProjectedTriangle::new(t.map(|v| index_points[v as usize]), facing, nj))
-        .collect();
-    let bins = SlabBins::new(nk, projected.iter().map(|t| t.k_range(nk)));
-
+    let crossings = RowCrossings::new(mesh, dims, geometry);
     let mut winding = vec![0i32; len];
     winding
-        .par_chunks_mut(ni * nj)
+        .par_chunks_mut(dims[0] * dims[1])
         .enumerate()
         .for_each(|(k, slab)| {
-            for &t in bins.slab(k) {
-                let tri = &projected[t as usize];
-                for j in tri.j_lo..=tri.j_hi {
-                    let Some(x) = tri.crossing(j as f64, k as f64) else {
-                        continue;
-                    };
-                    // The crossing counts for the voxels strictly before it: i < x.
-                    let before = x.ceil().clamp(0.0, ni as f64) as usize;
-                    if before > 0 {
-                        slab[j * ni + before - 1] += tri.sign;
-                    }
-                }
-            }
-            for row in slab.chunks_mut(ni) {
+            crossings.add_slab(k, slab);
+            for row in slab.chunks_mut(dims[0]) {
                 let mut after = 0;
                 for w in row.iter_mut().rev() {
                     after += *w;
@@ -74,6 +53,73 @@ pub fn winding_numbers(mesh: &TriMesh, dims: [usize; 3], geometry: &Geometry) ->
             }
         });
     Ok(winding)
+}
+
+/// The ray crossings of a mesh on the rows of a grid, to be added up slab by slab.
+pub(crate) struct RowCrossings<'a> {
+    triangles: &'a [[u32; 3]],
+    index_points: Vec<DVec3>,
+    facing: i32,
+    bins: SlabBins,
+    ni: usize,
+    nj: usize,
+}
+
+impl<'a> RowCrossings<'a> {
+    /// `dims` must be valid (see [`voxel_count`]).
+    pub(crate) fn new(mesh: &'a TriMesh, dims: [usize; 3], geometry: &Geometry) -> Self {
+        let [ni, nj, nk] = dims;
+        let index_points: Vec<DVec3> = mesh
+            .points()
+            .par_iter()
+            .map(|&p| geometry.world_to_index(p))
+            .collect();
+        let mut crossings = RowCrossings {
+            triangles: mesh.triangles(),
+            index_points,
+            // A mirroring index map turns an outward mesh inward, which flips every crossing's
+            // sign.
+            facing: if geometry.is_left_handed() { -1 } else { 1 },
+            // Replaced below, once the triangles' slabs are known.
+            bins: SlabBins::default(),
+            ni,
+            nj,
+        };
+        let k_ranges: Vec<Option<(usize, usize)>> = (0..crossings.triangles.len())
+            .into_par_iter()
+            .map(|t| crossings.projected(t)?.k_range(nk))
+            .collect();
+        crossings.bins = SlabBins::new(nk, k_ranges.into_iter());
+        crossings
+    }
+
+    fn projected(&self, t: usize) -> Option<ProjectedTriangle> {
+        let corners = self.triangles[t].map(|v| self.index_points[v as usize]);
+        ProjectedTriangle::new(corners, self.facing, self.nj)
+    }
+
+    /// Adds to `slab` (the `ni·nj` voxels of slab `k`, i fastest) the crossings of its rows: the
+    /// winding contribution of each crossing at the last voxel before it, so that the sum of a
+    /// row from a voxel to its end is the voxel's winding number.
+    pub(crate) fn add_slab(&self, k: usize, slab: &mut [i32]) {
+        let ni = self.ni;
+        debug_assert_eq!(slab.len(), ni * self.nj);
+        for &t in self.bins.slab(k) {
+            let Some(tri) = self.projected(t as usize) else {
+                continue;
+            };
+            for j in tri.j_lo..=tri.j_hi {
+                let Some(x) = tri.crossing(j as f64, k as f64) else {
+                    continue;
+                };
+                // The crossing counts for the voxels strictly before it: i < x.
+                let before = x.ceil().clamp(0.0, ni as f64) as usize;
+                if before > 0 {
+                    slab[j * ni + before - 1] += tri.sign;
+                }
+            }
+        }
+    }
 }
 
 /// Whether each voxel centre (i fastest) is inside the closed, outward-oriented `mesh`: winding
@@ -115,6 +161,7 @@ pub(crate) fn index_range(lo: f64, hi: f64, n: usize) -> Option<(usize, usize)> 
 
 /// Items grouped by the k-slabs they touch, in item order within each slab (so that per-slab
 /// work is deterministic whatever the thread count), stored compactly.
+#[derive(Default)]
 pub(crate) struct SlabBins {
     start: Vec<usize>,
     items: Vec<u32>,
