@@ -296,7 +296,8 @@ enum BalloonStatus balloon_freeze_self_intersections(struct BalloonSegmenter *s,
                                                      size_t *frozen_vertices_out);
 
 // Replaces the balloon by the zero isosurface of its signed distance map, without its
-// self-intersecting triangles (the method's re-parametrisation); every vertex moves again.
+// self-intersecting triangles (the method's re-parametrisation). Its vertices inside the
+// intensity window move again; those outside it are frozen at the border.
 //
 // # Safety
 // `s` is a live handle.
