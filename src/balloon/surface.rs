@@ -204,6 +204,8 @@ impl Surface {
             }
         }
         let row = |v: u32| &leaving[start[v as usize] as usize..start[v as usize + 1] as usize];
+        // Exactly one opposite for every half-edge also rules out a repeated one: a second
+        // a → b leaves b → a either missing or with two opposites.
         let mut twins = vec![NONE; half_edges];
         for a in 0..positions.len() as u32 {
             for &(b, h) in row(a) {
@@ -211,9 +213,6 @@ impl Surface {
                 let (Some(&(_, g)), None) = (opposite.next(), opposite.next()) else {
                     return None;
                 };
-                if row(a).iter().filter(|&&(c, _)| c == b).count() != 1 {
-                    return None;
-                }
                 twins[h as usize] = g;
             }
         }
