@@ -17,7 +17,7 @@ use glam::DVec3;
 
 #[path = "support/aorta_like.rs"]
 mod aorta_like;
-use aorta_like::{aorta_grid, aorta_like_tube, DIMS};
+use aorta_like::{aorta_grid, aorta_like_tube, pole_to_pole_tube, DIMS};
 
 fn aorta_grid_tube(c: &mut Criterion) {
     let geometry = aorta_grid();
@@ -64,26 +64,7 @@ fn balloon_like_tube(geometry: &Geometry) -> TriMesh {
         );
         centre + bend + DVec3::new(section * phi.cos(), along, section * phi.sin())
     };
-    let mut points = vec![point(0, 0)];
-    for ring in 1..=RINGS {
-        points.extend((0..AROUND).map(|around| point(ring, around)));
-    }
-    points.push(point(RINGS + 1, 0));
-    let id = |ring: u32, around: u32| 1 + (ring - 1) * AROUND + around % AROUND;
-    let last = points.len() as u32 - 1;
-    let mut triangles = Vec::new();
-    for a in 0..AROUND {
-        triangles.push([0, id(1, a), id(1, a + 1)]);
-        triangles.push([last, id(RINGS, a + 1), id(RINGS, a)]);
-    }
-    for ring in 1..RINGS {
-        for a in 0..AROUND {
-            let (p, q) = (id(ring, a), id(ring, a + 1));
-            let (r, s) = (id(ring + 1, a + 1), id(ring + 1, a));
-            triangles.extend([[p, s, r], [p, r, q]]);
-        }
-    }
-    TriMesh::new(points, triangles).expect("the tube is a valid mesh")
+    pole_to_pole_tube(RINGS, AROUND, point)
 }
 
 fn reparametrisation_grid_tube(c: &mut Criterion) {

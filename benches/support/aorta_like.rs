@@ -40,21 +40,28 @@ pub fn aorta_like_tube(geometry: &Geometry) -> TriMesh {
                 radius_z * section * phi.sin(),
             )
     };
+    pole_to_pole_tube(RINGS, AROUND, point)
+}
+
+/// The closed, outward mesh of a tube given as `rings` rings of `around` vertices, `point(ring,
+/// around)` for rings 1..=rings, between the poles `point(0, 0)` and `point(rings + 1, 0)`:
+/// counter-clockwise seen from outside when the rings run along the tube's axis with `around`
+/// turning counter-clockwise about it, so that the first cap faces backwards.
+pub fn pole_to_pole_tube(rings: u32, around: u32, point: impl Fn(u32, u32) -> DVec3) -> TriMesh {
     let mut points = vec![point(0, 0)];
-    for ring in 1..=RINGS {
-        points.extend((0..AROUND).map(|around| point(ring, around)));
+    for ring in 1..=rings {
+        points.extend((0..around).map(|a| point(ring, a)));
     }
-    points.push(point(RINGS + 1, 0));
-    let id = |ring: u32, around: u32| 1 + (ring - 1) * AROUND + around % AROUND;
+    points.push(point(rings + 1, 0));
+    let id = |ring: u32, a: u32| 1 + (ring - 1) * around + a % around;
     let last = points.len() as u32 - 1;
-    // Counter-clockwise seen from outside: the first cap faces −y.
     let mut triangles = Vec::new();
-    for a in 0..AROUND {
+    for a in 0..around {
         triangles.push([0, id(1, a), id(1, a + 1)]);
-        triangles.push([last, id(RINGS, a + 1), id(RINGS, a)]);
+        triangles.push([last, id(rings, a + 1), id(rings, a)]);
     }
-    for ring in 1..RINGS {
-        for a in 0..AROUND {
+    for ring in 1..rings {
+        for a in 0..around {
             let (p, q) = (id(ring, a), id(ring, a + 1));
             let (r, s) = (id(ring + 1, a + 1), id(ring + 1, a));
             triangles.extend([[p, s, r], [p, r, q]]);
