@@ -221,7 +221,7 @@ impl Surface {
         for v in 0..positions.len() as u32 {
             outgoing.push(row(v).iter().min()?.1);
         }
-        let valence: Vec<usize> = (0..positions.len() as u32).map(|v| row(v).len()).collect();
+        let vertices = positions.len() as u32;
         let surface = Surface {
             states: vec![VertexState::Moving; positions.len()],
             live_vertices: positions.len(),
@@ -232,8 +232,7 @@ impl Surface {
             twins,
             rewritten: None,
         };
-        let one_fan = (0..valence.len() as u32)
-            .all(|v| surface.outgoing_half_edges(v).count() == valence[v as usize]);
+        let one_fan = (0..vertices).all(|v| surface.outgoing_half_edges(v).count() == row(v).len());
         one_fan.then_some(surface)
     }
 
