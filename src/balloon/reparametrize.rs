@@ -233,8 +233,8 @@ mod tests {
         let h: f64 = 3.0 - 2.0;
         let cap = std::f64::consts::PI * h * h * (3.0 * 3.0 - h) / 3.0;
         let union = 2.0 * (4.0 / 3.0 * std::f64::consts::PI * 27.0) - 2.0 * cap;
-        // The icosphere's facets, then the closing's two marching-cubes surfaces, each lie a
-        // sagitta inside the curved surface (refinement moves it back to the border).
+        // The icosphere's facets, then the marching-cubes surface, each lie a sagitta inside
+        // the curved surface (refinement moves it back to the border).
         assert!(
             (report.signed_volume - union).abs() / union < 0.06,
             "{}",
