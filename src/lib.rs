@@ -22,6 +22,7 @@ pub mod phantom;
 pub mod predicates;
 pub mod self_intersection;
 pub mod signed_distance;
+pub mod smoothed_volume;
 pub mod spatial_hash;
 #[doc(hidden)]
 pub mod test_data;

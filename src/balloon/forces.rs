@@ -13,10 +13,9 @@
 //!   (positive on a ridge) pushes c and d along their triangles' normals by θ and a, b back
 //!   by half the sum, so the edge flattens and the forces cancel: a sphere, whose dihedral
 //!   angles are all equal, feels no net bending, but a dent or a spike does.
-//! - **Inflation**: along the normal, with magnitude `1 − ½(d/tol)²` where `d` is the distance
-//!   of the trilinear intensity from the reference, so it slows near the border but never
-//!   stalls before it; beyond the tolerance the sign reverses (the paper's containing force).
-//!   The integrator freezes a vertex on the exact border crossing.
+//! - **Inflation**: along the normal, with the speed the place under the vertex gets from the
+//!   border rule (`border`): slower towards the border, reversed beyond it (the paper's
+//!   containing force). The integrator freezes a vertex on the exact border crossing.
 //!
 //! Elastic and bending terms are accumulated over the front's edges sequentially, in slot
 //! order, so the sums are the same whatever the thread count; the per-vertex parts run in
@@ -43,30 +42,6 @@ impl Default for ForceWeights {
             bending: 0.15,
             inflation: 1.0,
         }
-    }
-}
-
-/// Where a sample is relative to the structure: inside the tolerance band or not.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct IntensityWindow {
-    pub reference: f64,
-    pub tolerance: f64,
-}
-
-impl IntensityWindow {
-    /// Inflation speed for an intensity: positive inside the window, negative outside, NaN
-    /// (unknown intensity) counts as outside.
-    pub fn inflation(&self, intensity: f64) -> f64 {
-        let d = (intensity - self.reference).abs() / self.tolerance;
-        if d <= 1.0 {
-            1.0 - 0.5 * d * d
-        } else {
-            -0.5
-        }
-    }
-
-    pub fn contains(&self, intensity: f64) -> bool {
-        (intensity - self.reference).abs() <= self.tolerance
     }
 }
 
@@ -200,19 +175,6 @@ mod tests {
                 assert_eq!(f[i], all[v as usize], "vertex {v}");
             }
         }
-    }
-
-    #[test]
-    fn inflation_slows_towards_the_border_and_reverses_beyond() {
-        let w = IntensityWindow {
-            reference: 1000.0,
-            tolerance: 400.0,
-        };
-        assert_eq!(w.inflation(1000.0), 1.0);
-        assert!((w.inflation(600.0) - 0.5).abs() < 1e-12);
-        assert!(w.inflation(599.0) < 0.0);
-        assert!(w.inflation(f64::NAN) < 0.0);
-        assert!(w.contains(1400.0) && !w.contains(1400.5));
     }
 
     #[test]

@@ -3,10 +3,10 @@
 //! with every displacement clamped to a fraction of a voxel, so that the balloon cannot jump
 //! through a wall thinner than a voxel.
 //!
-//! A vertex whose step crosses the border of the intensity window (or the volume's edge) is
-//! put on the crossing, found by bisection on the trilinear intensity, and frozen there: the
-//! border is located to a small fraction of the step, not to the step itself. Frozen vertices
-//! no longer move (paper, section 2).
+//! A vertex whose step crosses the border (`border`: where the smoothed image stops the
+//! balloon) or the volume's edge is put on the crossing, found by bisection on the trilinear
+//! intensity, and frozen there: the border is located to a small fraction of the step, not to
+//! the step itself. Frozen vertices no longer move (paper, section 2).
 //!
 //! Each vertex's new position depends only on the surface before the step, so vertices are
 //! updated in parallel with the same result for any thread count.
@@ -14,15 +14,15 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::forces::{internal_forces, ForceScratch, ForceWeights, IntensityWindow};
+use super::border::{Border, ImageScales};
+use super::forces::{internal_forces, ForceScratch, ForceWeights};
 use super::front::Front;
 use super::surface::{Surface, VertexState};
-use crate::volume::Volume;
 
 /// What a step needs besides the surface.
 pub(crate) struct Stepper<'a, 'v> {
-    pub volume: &'a Volume<'v>,
-    pub window: IntensityWindow,
+    pub image: &'a ImageScales<'v>,
+    pub border: Border,
     pub weights: ForceWeights,
     pub edge_length: f64,
     pub max_step: f64,
@@ -91,10 +91,10 @@ impl Stepper<'_, '_> {
     }
 
     fn move_vertex(&self, x: DVec3, normal: DVec3, internal: DVec3) -> (DVec3, VertexState) {
-        let Some(here) = self.volume.sample_world(x) else {
+        let Some(here) = self.border.place(self.image, x) else {
             return (x, VertexState::FrozenAtBorder);
         };
-        let inflation = self.weights.inflation * self.window.inflation(here);
+        let inflation = self.weights.inflation * here.speed;
         let mut dx = self.max_step * (inflation * normal + internal);
         let length = dx.length();
         if length > self.max_step {
@@ -103,11 +103,10 @@ impl Stepper<'_, '_> {
         if !dx.is_finite() {
             return (x, VertexState::FrozenAtBorder);
         }
-        let side = self.window.contains(here);
         let same_side = |p: DVec3| {
-            self.volume
-                .sample_world(p)
-                .is_some_and(|v| self.window.contains(v) == side)
+            self.border
+                .place(self.image, p)
+                .is_some_and(|place| place.passable == here.passable)
         };
         let target = x + dx;
         if same_side(target) {
@@ -130,21 +129,26 @@ impl Stepper<'_, '_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::balloon::border::IntensityWindow;
     use crate::geometry::Geometry;
     use crate::volume::{Image, VoxelBuffer};
 
-    /// A stepper with unit edge length and quarter-voxel steps.
+    /// A stepper with unit edge length and quarter-voxel steps, with the window taken
+    /// literally.
     fn stepper<'a, 'v>(
-        volume: &'a Volume<'v>,
+        image: &'a ImageScales<'v>,
         reference: f64,
         tolerance: f64,
         weights: ForceWeights,
     ) -> Stepper<'a, 'v> {
         Stepper {
-            volume,
-            window: IntensityWindow {
-                reference,
-                tolerance,
+            image,
+            border: Border {
+                window: IntensityWindow {
+                    reference,
+                    tolerance,
+                },
+                edge_strength: 0.0,
             },
             weights,
             edge_length: 1.0,
@@ -170,7 +174,8 @@ mod tests {
     fn a_seed_sphere_inflates_to_the_border_and_freezes_on_it() {
         let image = ball();
         let volume = image.view();
-        let stepper = stepper(&volume, 1100.0, 500.0, ForceWeights::default());
+        let smoothed = ImageScales::new(volume);
+        let stepper = stepper(&smoothed, 1100.0, 500.0, ForceWeights::default());
         let mut surface = Surface::icosphere(DVec3::splat(10.0), 1.0, 3).unwrap();
         let mut scratch = Scratch::default();
         let mut steps = 0;
@@ -191,7 +196,7 @@ mod tests {
             let r = (p - DVec3::splat(10.0)).length();
             assert!((r - 6.0).abs() < 0.15, "vertex {v} stopped at radius {r}");
             if surface.states()[v as usize] == VertexState::FrozenAtBorder {
-                let value = volume.sample_world(p).unwrap();
+                let value = smoothed.fine.sample_world(p).unwrap();
                 assert!((value - 600.0).abs() < 1.0, "{value}");
                 frozen += 1;
             }
@@ -202,9 +207,9 @@ mod tests {
     #[test]
     fn no_vertex_moves_more_than_the_step() {
         let image = ball();
-        let volume = image.view();
+        let smoothed = ImageScales::new(image.view());
         let stepper = stepper(
-            &volume,
+            &smoothed,
             1100.0,
             500.0,
             ForceWeights {
@@ -229,8 +234,8 @@ mod tests {
             Geometry::identity(),
         )
         .unwrap();
-        let volume = image.view();
-        let stepper = stepper(&volume, 200.0, 10.0, ForceWeights::default());
+        let smoothed = ImageScales::new(image.view());
+        let stepper = stepper(&smoothed, 200.0, 10.0, ForceWeights::default());
         let mut surface = Surface::icosphere(DVec3::splat(3.5), 1.0, 2).unwrap();
         let mut scratch = Scratch::default();
         for _ in 0..100 {

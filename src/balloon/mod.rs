@@ -3,6 +3,7 @@
 //! half-edge structure whose edges are split when they grow too long and collapsed when they
 //! become too short, always staying a closed, oriented 2-manifold — on which the forces work.
 
+pub mod border;
 mod contact_search;
 mod fast_hash;
 pub mod forces;

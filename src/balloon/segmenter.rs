@@ -17,12 +17,12 @@ use std::time::Instant;
 
 use glam::DVec3;
 
+use super::border::{edge_scale_mm, Border, ImageScales, IntensityWindow};
 use super::contact_search::{local_mesh, FrozenTriangles};
-use super::forces::IntensityWindow;
 use super::front::Front;
 use super::inflation::{Scratch, StepReport, Stepper};
 use super::params::BalloonParams;
-use super::reparametrize::{inherited_states, reparametrize};
+use super::reparametrize::{inherited_states, reparametrize, Keep};
 use super::seed_statistics::{self, SeedStatistics};
 use super::surface::{Surface, VertexState};
 use super::touching::cut_touching;
@@ -43,8 +43,9 @@ const REMESH_INTERVAL: u32 = 2;
 const STILL: f64 = 1e-3;
 /// Steps over which the enclosed volume must grow by a voxel for the balloon to count as
 /// growing: a front advancing at most a voxel per step sweeps a dozen voxels or more in that
-/// time.
-const STALL_STEPS: u32 = 25;
+/// time. An even count, so that vertices flipping between two positions every step are seen
+/// in the same one (with 25, such a pair kept a fading tube's balloon "growing" for 4000 steps).
+const STALL_STEPS: u32 = 24;
 /// Radius, in target edge lengths, of the ball whose erosion finds the thick parts of the
 /// balloon when looking for structures that touch: thinner parts have no core of their own.
 const TOUCHING_EDGE_LENGTHS: f64 = 2.5;
@@ -121,6 +122,10 @@ pub struct SegmentationStats {
     pub tolerance: f64,
     /// The estimate behind the defaults, when reference or tolerance were not given.
     pub seed_statistics: Option<SeedStatistics>,
+    /// The structure's edge strength (intensity per mm) that the border rule compares
+    /// gradients with; 0 when no ray from the seed crosses a given window's border (the window
+    /// is then taken literally).
+    pub edge_strength: f64,
     pub edge_length: f64,
     pub iterations: u32,
     pub reparametrizations: u32,
@@ -130,8 +135,10 @@ pub struct SegmentationStats {
 /// A balloon in a volume.
 pub struct Segmenter<'v, 'p> {
     volume: Volume<'v>,
+    /// The volume as the balloon sees it.
+    image: ImageScales<'v>,
     params: BalloonParams,
-    window: IntensityWindow,
+    border: Border,
     edge_length: f64,
     surface: Surface,
     /// The surface's frozen triangles, for the contact search; rebuilt with the surface.
@@ -154,9 +161,10 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .build()
             .map_err(|e| Error::invalid_argument(format!("cannot start the threads: {e}")))?;
         let geometry = *volume.geometry();
+        let edge_scale = edge_scale_mm(&volume);
         let estimate = match (params.reference, params.tolerance) {
             (Some(_), Some(_)) => None,
-            _ => Some(pool.install(|| seed_statistics::estimate(&volume, seed))?),
+            _ => Some(pool.install(|| seed_statistics::estimate(&volume, seed, edge_scale))?),
         };
         let window = IntensityWindow {
             reference: params
@@ -175,10 +183,20 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                 window.tolerance
             )));
         }
+        let edge_strength = match estimate {
+            Some(s) if params.reference.is_none() && params.tolerance.is_none() => s.edge_strength,
+            _ => pool
+                .install(|| seed_statistics::edge_strength(&volume, seed, &window, edge_scale))
+                .unwrap_or(0.0),
+        };
         let edge_length = params.edge_length.unwrap_or(geometry.mean_spacing());
         let mut segmenter = Segmenter {
             volume,
-            window,
+            image: ImageScales::new(volume),
+            border: Border {
+                window,
+                edge_strength,
+            },
             edge_length,
             surface: Surface::icosphere(seed, geometry.mean_spacing(), 1)?,
             frozen: FrozenTriangles::default(),
@@ -188,6 +206,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                 reference_intensity: window.reference,
                 tolerance: window.tolerance,
                 seed_statistics: estimate,
+                edge_strength,
                 edge_length,
                 iterations: 0,
                 reparametrizations: 0,
@@ -215,18 +234,21 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         Ok(())
     }
 
+    /// The seed must be where the balloon sees the structure: inside the window on the
+    /// smoothed image.
     fn check_seed(&self, seed: DVec3) -> Result<()> {
-        match self.volume.sample_world(seed) {
+        let window = self.border.window;
+        match self.image.fine.sample_world(seed) {
             None => Err(Error::invalid_argument(format!(
                 "the seed {seed} mm is outside the volume (voxel index {}); give it in world \
                  millimetres inside the image",
                 self.volume.geometry().world_to_index(seed)
             ))),
-            Some(v) if !self.window.contains(v) => Err(Error::invalid_argument(format!(
-                "the intensity at the seed {seed} mm is {v}, outside the window {} ± {}: the seed \
-                 is on the background or the window is too narrow; move the seed into the \
-                 structure or widen the tolerance",
-                self.window.reference, self.window.tolerance
+            Some(v) if !window.contains(v) => Err(Error::invalid_argument(format!(
+                "the intensity at the seed {seed} mm is {v} (smoothed over half a voxel), \
+                 outside the window {} ± {}: the seed is on the background or the window is too \
+                 narrow; move the seed into the structure or widen the tolerance",
+                window.reference, window.tolerance
             ))),
             Some(_) => Ok(()),
         }
@@ -293,8 +315,8 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     fn one_step(&mut self, phase: Phase) -> Result<StepReport> {
         let start = Instant::now();
         let stepper = Stepper {
-            volume: &self.volume,
-            window: self.window,
+            image: &self.image,
+            border: self.border,
             weights: self.params.weights,
             edge_length: self.edge_length,
             max_step: self.params.step_fraction * self.volume.geometry().min_spacing(),
@@ -342,7 +364,9 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                  structure through a gap in its wall; lower the tolerance (now {:.4} around \
                  {:.4}), raise the bending weight, or raise max_vertices if the structure is \
                  really that large",
-                self.params.max_vertices, self.window.tolerance, self.window.reference
+                self.params.max_vertices,
+                self.border.window.tolerance,
+                self.border.window.reference
             )));
         }
         if self.surface.vertex_slots() > 2 * self.surface.vertex_count() {
@@ -448,9 +472,14 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         self.report(0.75, Phase::Reparametrization)?;
         let (mesh, states) = self.mesh();
         let geometry = *self.volume.geometry();
+        let (image, border) = (&self.image, self.border);
+        let keep = Keep {
+            seeds: &self.seeds,
+            passable: &|p| border.passable(image, p),
+        };
         let repaired = self
             .pool
-            .install(|| reparametrize(&mesh, &states, &geometry))?;
+            .install(|| reparametrize(&mesh, &states, &geometry, &keep))?;
         let mut surface = Surface::from_mesh(&repaired)?;
         match next {
             AfterReparametrization::Nothing => {
@@ -468,19 +497,15 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         Ok(())
     }
 
-    /// Freezes the vertices of a new surface that lie outside the intensity window; the others
-    /// move on to the border. Where two lumens meet across a saddle below the border (the
-    /// aorta's renal arteries), the merged surface bridges the saddle: pulled in, the bridge
-    /// deflated from both sides until they passed through each other, and the same contact
-    /// came back after every re-parametrisation.
+    /// Freezes the vertices of a new surface where the balloon may not go (`border`); the
+    /// others move on to the border. Where two lumens meet across a saddle below the border
+    /// (the aorta's renal arteries), the merged surface bridges the saddle: pulled in, the
+    /// bridge deflated from both sides until they passed through each other, and the same
+    /// contact came back after every re-parametrisation.
     fn freeze_outside_window(&self, surface: &mut Surface) {
         let (positions, states) = surface.positions_and_states_mut();
         for (p, state) in positions.iter().zip(states) {
-            let inside = self
-                .volume
-                .sample_world(*p)
-                .is_some_and(|v| self.window.contains(v));
-            if !inside {
+            if !self.border.passable(&self.image, *p) {
                 *state = VertexState::FrozenAtBorder;
             }
         }
@@ -659,10 +684,7 @@ mod tests {
         let (mut inside, mut outside) = (0, 0);
         for v in s.surface.live_vertices() {
             let p = s.surface.positions()[v as usize];
-            let in_window = s
-                .volume
-                .sample_world(p)
-                .is_some_and(|i| s.window.contains(i));
+            let in_window = s.border.passable(&s.image, p);
             let state = s.surface.states()[v as usize];
             if in_window {
                 inside += 1;

@@ -1,0 +1,321 @@
+//! A Gaussian-smoothed view of a volume, computed lazily in bricks: the image as the balloon
+//! sees it, at the scale of its own triangles rather than of single noisy voxels.
+//!
+//! The smoothing is separable (a sampled, normalised Gaussian per axis, σ given in mm and
+//! converted per axis, so anisotropic voxels are smoothed by the same physical amount; the
+//! volume's faces are extended by their last voxel). It is computed only for the bricks of
+//! `BRICK`³ voxels that are sampled, each once, when first needed: a balloon visits a thin shell
+//! of a large scan, and a smoothed copy of the whole of it would cost more than the
+//! segmentation. Bricks are computed the same way whichever thread asks first, so results do
+//! not depend on the thread count.
+//!
+//! Samples are trilinear on the smoothed grid, like [`Volume::sample_index`]. Non-finite voxels
+//! stay unknown (NaN) and are left out of their neighbours' averages (normalised convolution),
+//! so that unknown data neither spreads over the kernel's reach nor disappears.
+
+use std::sync::OnceLock;
+
+use glam::DVec3;
+
+use crate::geometry::Geometry;
+use crate::volume::Volume;
+
+/// Voxels per brick side.
+const BRICK: usize = 16;
+/// The kernel reaches this many σ each way.
+const KERNEL_REACH: f64 = 3.0;
+
+
+/// A lazily smoothed view of a volume.
+pub struct SmoothedVolume<'v> {
+    volume: Volume<'v>,
+    dims: [usize; 3],
+    bricks_per_axis: [usize; 3],
+    /// One sampled Gaussian per axis, `kernel[a][r + t]` for offsets `t` in `-r..=r`.
+    kernels: [Vec<f64>; 3],
+    bricks: Vec<OnceLock<Box<[f32]>>>,
+}
+
+impl<'v> SmoothedVolume<'v> {
+    /// `volume` smoothed by a Gaussian of `sigma_mm` (0 or less: not smoothed at all).
+    pub fn new(volume: Volume<'v>, sigma_mm: f64) -> Self {
+        let dims = volume.dims();
+        let spacing = volume.geometry().spacing();
+        let kernels = [0, 1, 2].map(|a| gaussian_kernel(sigma_mm / spacing[a]));
+        let bricks_per_axis = dims.map(|d| d.div_ceil(BRICK));
+        let count = bricks_per_axis.iter().product();
+        SmoothedVolume {
+            volume,
+            dims,
+            bricks_per_axis,
+            kernels,
+            bricks: (0..count).map(|_| OnceLock::new()).collect(),
+        }
+    }
+
+    pub fn geometry(&self) -> &Geometry {
+        self.volume.geometry()
+    }
+
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    /// The smoothed voxel at (i, j, k).
+    pub fn voxel(&self, i: usize, j: usize, k: usize) -> f64 {
+        let b = [i / BRICK, j / BRICK, k / BRICK];
+        let brick = self.brick(b);
+        let extent = self.brick_extent(b);
+        let local = (i % BRICK) + extent[0] * ((j % BRICK) + extent[1] * (k % BRICK));
+        brick[local] as f64
+    }
+
+    /// Trilinear interpolation at a continuous index; `None` outside `[0, dims-1]`.
+    pub fn sample_index(&self, p: DVec3) -> Option<f64> {
+        let mut lo = [0usize; 3];
+        let mut t = [0.0f64; 3];
+        for a in 0..3 {
+            let max = (self.dims[a] - 1) as f64;
+            if !(p[a] >= 0.0 && p[a] <= max) {
+                return None;
+            }
+            // Not negative, so truncation is the floor; on the last plane the cell below is
+            // used with weight 1 on its upper corner.
+            let cell = (p[a] as usize).min(self.dims[a].saturating_sub(2));
+            lo[a] = cell;
+            t[a] = p[a] - cell as f64;
+        }
+        let hi = [0, 1, 2].map(|a| (lo[a] + 1).min(self.dims[a] - 1));
+        let v = |i: usize, j: usize, k: usize| self.voxel(i, j, k);
+        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let c00 = lerp(v(lo[0], lo[1], lo[2]), v(hi[0], lo[1], lo[2]), t[0]);
+        let c10 = lerp(v(lo[0], hi[1], lo[2]), v(hi[0], hi[1], lo[2]), t[0]);
+        let c01 = lerp(v(lo[0], lo[1], hi[2]), v(hi[0], lo[1], hi[2]), t[0]);
+        let c11 = lerp(v(lo[0], hi[1], hi[2]), v(hi[0], hi[1], hi[2]), t[0]);
+        Some(lerp(lerp(c00, c10, t[1]), lerp(c01, c11, t[1]), t[2]))
+    }
+
+    pub fn sample_world(&self, world: DVec3) -> Option<f64> {
+        self.sample_index(self.geometry().world_to_index(world))
+    }
+
+    /// The gradient (intensity per mm, world axes) at `world`: central differences one voxel
+    /// either way along each grid axis (one-sided at the volume's faces); `None` outside.
+    pub fn gradient_world(&self, world: DVec3) -> Option<DVec3> {
+        let geometry = self.geometry();
+        let index = geometry.world_to_index(world);
+        let here = self.sample_index(index)?;
+        let mut per_index = DVec3::ZERO;
+        for a in 0..3 {
+            let mut step = DVec3::ZERO;
+            step[a] = 1.0;
+            let ahead = self.sample_index(index + step);
+            let behind = self.sample_index(index - step);
+            per_index[a] = match (behind, ahead) {
+                (Some(b), Some(f)) => 0.5 * (f - b),
+                (None, Some(f)) => f - here,
+                (Some(b), None) => here - b,
+                (None, None) => 0.0,
+            };
+        }
+        // index = W·(world − origin), so ∂I/∂world = Wᵀ·∂I/∂index.
+        Some(geometry.world_to_index_matrix().transpose() * per_index)
+    }
+
+    /// Voxels of brick `b` per axis (the last bricks may be cut by the volume's faces).
+    fn brick_extent(&self, b: [usize; 3]) -> [usize; 3] {
+        [0, 1, 2].map(|a| BRICK.min(self.dims[a] - b[a] * BRICK))
+    }
+
+    fn brick(&self, b: [usize; 3]) -> &[f32] {
+        let n = b[0] + self.bricks_per_axis[0] * (b[1] + self.bricks_per_axis[1] * b[2]);
+        self.bricks[n].get_or_init(|| self.smooth_brick(b))
+    }
+
+    /// The smoothed voxels of brick `b`, i fastest: the raw voxels around it (the kernels'
+    /// reach beyond it, faces extended) smoothed along i, then j, then k.
+    fn smooth_brick(&self, b: [usize; 3]) -> Box<[f32]> {
+        let extent = self.brick_extent(b);
+        let start = b.map(|v| v * BRICK);
+        let reach = self.kernels.clone().map(|k| k.len() / 2);
+        // Each pass keeps the reach of the axes still to be smoothed.
+        let mut ranges = [0, 1, 2].map(|a| {
+            (
+                start[a] as isize - reach[a] as isize,
+                start[a] as isize + (extent[a] + reach[a]) as isize,
+            )
+        });
+        let size = |r: &[(isize, isize); 3]| r.map(|(lo, hi)| (hi - lo) as usize);
+        let clamp = |v: isize, a: usize| v.clamp(0, self.dims[a] as isize - 1) as usize;
+        let n = size(&ranges);
+        let mut values = Vec::with_capacity(n[0] * n[1] * n[2]);
+        for k in ranges[2].0..ranges[2].1 {
+            for j in ranges[1].0..ranges[1].1 {
+                for i in ranges[0].0..ranges[0].1 {
+                    values.push(self.volume.get_f64(clamp(i, 0), clamp(j, 1), clamp(k, 2)));
+                }
+            }
+        }
+        for axis in 0..3 {
+            let before = size(&ranges);
+            let mut after_ranges = ranges;
+            after_ranges[axis] = (start[axis] as isize, (start[axis] + extent[axis]) as isize);
+            let after = size(&after_ranges);
+            values = convolve_axis(&values, before, after, axis, &self.kernels[axis]);
+            ranges = after_ranges;
+        }
+        values.into_iter().map(|v| v as f32).collect()
+    }
+}
+
+/// A sampled Gaussian of `sigma` voxels, normalised; `[1.0]` (no smoothing) for σ = 0.
+fn gaussian_kernel(sigma: f64) -> Vec<f64> {
+    if !(sigma.is_finite() && sigma > 0.0) {
+        return vec![1.0];
+    }
+    let reach = (KERNEL_REACH * sigma).ceil() as isize;
+    let weights: Vec<f64> = (-reach..=reach)
+        .map(|t| (-0.5 * (t as f64 / sigma).powi(2)).exp())
+        .collect();
+    let sum: f64 = weights.iter().sum();
+    weights.into_iter().map(|w| w / sum).collect()
+}
+
+/// Convolves `values` (an `input` box, i fastest) along `axis` with `kernel`, keeping the
+/// middle `output[axis]` positions of that axis (the kernel's reach is cut off either side).
+fn convolve_axis(
+    values: &[f64],
+    input: [usize; 3],
+    output: [usize; 3],
+    axis: usize,
+    kernel: &[f64],
+) -> Vec<f64> {
+    let strides = [1, input[0], input[0] * input[1]];
+    let mut out = Vec::with_capacity(output[0] * output[1] * output[2]);
+    for k in 0..output[2] {
+        for j in 0..output[1] {
+            for i in 0..output[0] {
+                let at = [i, j, k];
+                let base = at[0] * strides[0] + at[1] * strides[1] + at[2] * strides[2];
+                let centre = values[base + kernel.len() / 2 * strides[axis]];
+                let (mut sum, mut weight) = (0.0, 0.0);
+                for (t, w) in kernel.iter().enumerate() {
+                    let v = values[base + t * strides[axis]];
+                    if v.is_finite() {
+                        sum += w * v;
+                        weight += w;
+                    }
+                }
+                out.push(if centre.is_finite() {
+                    sum / weight
+                } else {
+                    f64::NAN
+                });
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::volume::{Image, VoxelBuffer};
+
+    fn image(dims: [usize; 3], spacing: [f64; 3], f: impl Fn(usize, usize, usize) -> f64) -> Image {
+        let mut values = Vec::new();
+        for k in 0..dims[2] {
+            for j in 0..dims[1] {
+                for i in 0..dims[0] {
+                    values.push(f(i, j, k));
+                }
+            }
+        }
+        Image::new(
+            VoxelBuffer::F64(values),
+            dims,
+            Geometry::with_spacing(spacing, [0.0; 3]).unwrap(),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn a_linear_ramp_is_unchanged_away_from_the_faces() {
+        // A Gaussian is symmetric: it keeps a linear function, across brick boundaries too.
+        let img = image([40, 35, 20], [0.8, 0.8, 1.5], |i, j, k| {
+            3.0 * i as f64 - 2.0 * j as f64 + 5.0 * k as f64
+        });
+        let s = SmoothedVolume::new(img.view(), 1.0);
+        for (i, j, k) in [(5, 5, 5), (15, 16, 14), (16, 17, 3), (31, 20, 12)] {
+            let exact = 3.0 * i as f64 - 2.0 * j as f64 + 5.0 * k as f64;
+            assert!((s.voxel(i, j, k) - exact).abs() < 1e-3, "{i} {j} {k}");
+        }
+        let g = s.gradient_world(DVec3::new(12.0, 12.0, 12.0)).unwrap();
+        assert!(
+            (g - DVec3::new(3.0 / 0.8, -2.0 / 0.8, 5.0 / 1.5)).length() < 1e-3,
+            "{g}"
+        );
+    }
+
+    #[test]
+    fn bricks_agree_with_smoothing_the_whole_volume() {
+        let dims = [37, 19, 21];
+        let noise =
+            |i: usize, j: usize, k: usize| ((i * 7919 + j * 104_729 + k * 1299) % 97) as f64;
+        let img = image(dims, [1.0, 0.7, 1.3], noise);
+        let s = SmoothedVolume::new(img.view(), 1.2);
+        // The same separable convolution on the whole volume, faces extended.
+        let kernels = [1.0, 0.7, 1.3].map(|sp| gaussian_kernel(1.2 / sp));
+        let mut full: Vec<f64> = (0..dims[0] * dims[1] * dims[2])
+            .map(|n| noise(n % dims[0], n / dims[0] % dims[1], n / (dims[0] * dims[1])))
+            .collect();
+        for axis in 0..3 {
+            let r = kernels[axis].len() / 2;
+            let mut next = full.clone();
+            for n in 0..full.len() {
+                let mut at = [n % dims[0], n / dims[0] % dims[1], n / (dims[0] * dims[1])];
+                let centre = at[axis] as isize;
+                let mut sum = 0.0;
+                for (t, w) in kernels[axis].iter().enumerate() {
+                    at[axis] = (centre + t as isize - r as isize).clamp(0, dims[axis] as isize - 1)
+                        as usize;
+                    sum += w * full[at[0] + dims[0] * (at[1] + dims[1] * at[2])];
+                }
+                next[n] = sum;
+            }
+            full = next;
+        }
+        for (n, &expected) in full.iter().enumerate() {
+            let (i, j, k) = (n % dims[0], n / dims[0] % dims[1], n / (dims[0] * dims[1]));
+            assert!((s.voxel(i, j, k) - expected).abs() < 1e-4, "{i} {j} {k}");
+        }
+    }
+
+    #[test]
+    fn unknown_voxels_stay_where_they_are() {
+        // A plate of NaN at i = 10: its neighbours average their finite neighbours.
+        let img = image([20, 12, 12], [1.0; 3], |i, _, _| if i == 10 { f64::NAN } else { 5.0 });
+        let s = SmoothedVolume::new(img.view(), 1.0);
+        assert!(s.voxel(10, 6, 6).is_nan());
+        assert!((s.voxel(9, 6, 6) - 5.0).abs() < 1e-6);
+        assert!((s.voxel(11, 6, 6) - 5.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn no_smoothing_samples_like_the_volume() {
+        let img = image([9, 8, 7], [1.0; 3], |i, j, k| {
+            (i * i + 3 * j + k * k * k) as f64
+        });
+        let s = SmoothedVolume::new(img.view(), 0.0);
+        for p in [
+            DVec3::new(1.3, 2.7, 4.1),
+            DVec3::new(8.0, 7.0, 6.0),
+            DVec3::ZERO,
+        ] {
+            let a = s.sample_index(p).unwrap();
+            let b = img.view().sample_index(p).unwrap();
+            assert!((a - b).abs() < 1e-3 * b.abs().max(1.0), "{p}: {a} {b}");
+        }
+        assert!(s.sample_index(DVec3::new(-0.1, 1.0, 1.0)).is_none());
+    }
+}
