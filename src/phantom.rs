@@ -1,6 +1,7 @@
 //! Synthetic test volumes with known answers: analytic shapes (sphere, torus, double torus,
-//! Y-shaped vessel, two touching tubes) rendered with partial-volume voxels, optional Gaussian
-//! blur and Gaussian noise, on any spacing and direction.
+//! Y-shaped vessel, two touching tubes, a tube whose contrast fades) rendered with
+//! partial-volume voxels, optional Gaussian blur and Gaussian noise, on any spacing and
+//! direction.
 //!
 //! Each shape is an exact signed distance function in world millimetres (negative inside,
 //! after Quilez's primitives), so Dice, surface distance and genus of a segmentation can be
@@ -29,15 +30,21 @@ pub enum Shape {
     /// Two parallel tubes (radius 4 mm) whose walls touch along a line; the seed goes in the
     /// first. The case where region growing leaks.
     TouchingTubes,
+    /// A tube (radius 5 mm, 60 mm long, along y) whose contrast fades from full at y = 0 to
+    /// 30% at y = 20 mm and stays there to its end, like a contrast bolus fading along a
+    /// vessel: genus 0. Where it fades, noise decides voxel by voxel which side of the border
+    /// it is on.
+    FadingTube,
 }
 
 impl Shape {
-    pub const ALL: [Shape; 5] = [
+    pub const ALL: [Shape; 6] = [
         Shape::Sphere,
         Shape::Torus,
         Shape::DoubleTorus,
         Shape::YVessel,
         Shape::TouchingTubes,
+        Shape::FadingTube,
     ];
 
     pub fn name(self) -> &'static str {
@@ -47,6 +54,7 @@ impl Shape {
             Shape::DoubleTorus => "double-torus",
             Shape::YVessel => "y-vessel",
             Shape::TouchingTubes => "touching-tubes",
+            Shape::FadingTube => "fading-tube",
         }
     }
 
@@ -83,6 +91,18 @@ impl Shape {
             }
             Shape::YVessel => y_vessel(p),
             Shape::TouchingTubes => self.seeded_distance(p).min(second_tube(p)),
+            Shape::FadingTube => capsule(p, -FADING_END, FADING_END, FADING_RADIUS),
+        }
+    }
+
+    /// The share of the full contrast the shape has at `p` (1 but where it fades).
+    pub fn contrast(self, p: DVec3) -> f64 {
+        match self {
+            Shape::FadingTube => {
+                let faded = (p.y / FADE_LENGTH).clamp(0.0, 1.0);
+                1.0 - (1.0 - FADED_CONTRAST) * faded
+            }
+            _ => 1.0,
         }
     }
 
@@ -110,6 +130,7 @@ impl Shape {
             Shape::DoubleTorus => DVec3::new(TORUS_MAJOR, TORUS_MAJOR, 0.0),
             Shape::YVessel => DVec3::new(0.0, 0.0, -10.0),
             Shape::TouchingTubes => -TUBE_OFFSET,
+            Shape::FadingTube => DVec3::new(0.0, -20.0, 0.0),
         }
     }
 
@@ -126,6 +147,7 @@ impl Shape {
             Shape::DoubleTorus => DVec3::new(28.0, 16.0, 4.0),
             Shape::YVessel => DVec3::new(16.0, 6.0, 21.0),
             Shape::TouchingTubes => DVec3::new(8.0, 4.0, 22.0),
+            Shape::FadingTube => FADING_END + FADING_RADIUS,
         }
     }
 }
@@ -136,6 +158,11 @@ const TORUS_MINOR: f64 = 4.0;
 const TUBE_RADIUS: f64 = 4.0;
 /// Each tube's centre line is this far from the contact line: the walls touch along x = 0.
 const TUBE_OFFSET: DVec3 = DVec3::new(TUBE_RADIUS, 0.0, 0.0);
+const FADING_RADIUS: f64 = 5.0;
+/// The fading tube's centre line runs from −FADING_END to FADING_END.
+const FADING_END: DVec3 = DVec3::new(0.0, 30.0, 0.0);
+const FADE_LENGTH: f64 = 20.0;
+const FADED_CONTRAST: f64 = 0.3;
 
 fn torus(p: DVec3) -> f64 {
     let ring = (p.x * p.x + p.y * p.y).sqrt() - TORUS_MAJOR;
@@ -256,7 +283,8 @@ pub fn render(shape: Shape, options: &PhantomOptions) -> Result<Phantom> {
         .for_each(|(k, slab)| {
             for (n, v) in slab.iter_mut().enumerate() {
                 let centre = DVec3::new((n % dims[0]) as f64, (n / dims[0]) as f64, k as f64);
-                let d = shape.signed_distance(geometry.index_to_world(centre));
+                let world = geometry.index_to_world(centre);
+                let d = shape.signed_distance(world);
                 let covered = if d > voxel_reach {
                     0.0
                 } else if d < -voxel_reach {
@@ -264,7 +292,7 @@ pub fn render(shape: Shape, options: &PhantomOptions) -> Result<Phantom> {
                 } else {
                     coverage(shape, &geometry, centre)
                 };
-                *v = (options.background + contrast * covered) as f32;
+                *v = (options.background + contrast * shape.contrast(world) * covered) as f32;
             }
         });
     if options.blur_mm > 0.0 {

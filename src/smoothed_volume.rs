@@ -18,13 +18,15 @@ use std::sync::OnceLock;
 use glam::DVec3;
 
 use crate::geometry::Geometry;
-use crate::volume::Volume;
+use crate::volume::{Scalar, TypedVolume, Volume, VoxelVisitor};
 
-/// Voxels per brick side.
+/// Voxels per brick side; every brick is stored whole (the last ones padded), so that a voxel's
+/// place in its brick is bit arithmetic.
 const BRICK: usize = 16;
+const BRICK_BITS: u32 = BRICK.trailing_zeros();
+const BRICK_VOXELS: usize = BRICK * BRICK * BRICK;
 /// The kernel reaches this many σ each way.
 const KERNEL_REACH: f64 = 3.0;
-
 
 /// A lazily smoothed view of a volume.
 pub struct SmoothedVolume<'v> {
@@ -32,8 +34,8 @@ pub struct SmoothedVolume<'v> {
     dims: [usize; 3],
     bricks_per_axis: [usize; 3],
     /// One sampled Gaussian per axis, `kernel[a][r + t]` for offsets `t` in `-r..=r`.
-    kernels: [Vec<f64>; 3],
-    bricks: Vec<OnceLock<Box<[f32]>>>,
+    kernels: [Vec<f32>; 3],
+    bricks: Vec<OnceLock<Box<[f32; BRICK_VOXELS]>>>,
 }
 
 impl<'v> SmoothedVolume<'v> {
@@ -63,17 +65,83 @@ impl<'v> SmoothedVolume<'v> {
 
     /// The smoothed voxel at (i, j, k).
     pub fn voxel(&self, i: usize, j: usize, k: usize) -> f64 {
-        let b = [i / BRICK, j / BRICK, k / BRICK];
-        let brick = self.brick(b);
-        let extent = self.brick_extent(b);
-        let local = (i % BRICK) + extent[0] * ((j % BRICK) + extent[1] * (k % BRICK));
-        brick[local] as f64
+        let brick = self.brick([i, j, k].map(|v| v >> BRICK_BITS));
+        brick[local(i, j, k)] as f64
     }
 
     /// Trilinear interpolation at a continuous index; `None` outside `[0, dims-1]`.
     pub fn sample_index(&self, p: DVec3) -> Option<f64> {
+        let (corners, t) = self.cell(p)?;
+        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let c00 = lerp(corners[0], corners[1], t.x);
+        let c10 = lerp(corners[2], corners[3], t.x);
+        let c01 = lerp(corners[4], corners[5], t.x);
+        let c11 = lerp(corners[6], corners[7], t.x);
+        Some(lerp(lerp(c00, c10, t.y), lerp(c01, c11, t.y), t.z))
+    }
+
+    pub fn sample_world(&self, world: DVec3) -> Option<f64> {
+        self.sample_index(self.geometry().world_to_index(world))
+    }
+
+    /// The trilinear interpolant's value and gradient (intensity per mm, world axes) at
+    /// `world`; `None` outside the volume.
+    pub fn sample_with_trilinear_gradient_world(&self, world: DVec3) -> Option<(f64, DVec3)> {
+        let geometry = self.geometry();
+        let (c, t) = self.cell(geometry.world_to_index(world))?;
+        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        // Along x on the cell's four x edges (y0z0, y1z0, y0z1, y1z1), then across them.
+        let [e00, e10, e01, e11] = [0, 2, 4, 6].map(|n| lerp(c[n], c[n + 1], t.x));
+        let (near, far) = (lerp(e00, e10, t.y), lerp(e01, e11, t.y));
+        let value = lerp(near, far, t.z);
+        let dx = lerp(
+            lerp(c[1] - c[0], c[3] - c[2], t.y),
+            lerp(c[5] - c[4], c[7] - c[6], t.y),
+            t.z,
+        );
+        let dy = lerp(e10 - e00, e11 - e01, t.z);
+        let dz = far - near;
+        let per_index = DVec3::new(dx, dy, dz);
+        // index = W·(world − origin), so ∂I/∂world = Wᵀ·∂I/∂index.
+        Some((
+            value,
+            geometry.world_to_index_matrix().transpose() * per_index,
+        ))
+    }
+
+    /// The value and gradient (intensity per mm, world axes) at `world`, the gradient by
+    /// central differences one voxel either way along each grid axis (one-sided at the
+    /// volume's faces); `None` outside the volume.
+    pub fn sample_with_gradient_world(&self, world: DVec3) -> Option<(f64, DVec3)> {
+        let geometry = self.geometry();
+        let index = geometry.world_to_index(world);
+        let here = self.sample_index(index)?;
+        let mut per_index = DVec3::ZERO;
+        for a in 0..3 {
+            let mut step = DVec3::ZERO;
+            step[a] = 1.0;
+            per_index[a] = match (
+                self.sample_index(index - step),
+                self.sample_index(index + step),
+            ) {
+                (Some(b), Some(f)) => 0.5 * (f - b),
+                (None, Some(f)) => f - here,
+                (Some(b), None) => here - b,
+                (None, None) => 0.0,
+            };
+        }
+        // index = W·(world − origin), so ∂I/∂world = Wᵀ·∂I/∂index.
+        Some((
+            here,
+            geometry.world_to_index_matrix().transpose() * per_index,
+        ))
+    }
+
+    /// The eight voxels of the cell around `p` (x fastest, then y, then z) and `p`'s place in
+    /// it; `None` outside `[0, dims-1]`. The corners of most cells lie in one brick.
+    fn cell(&self, p: DVec3) -> Option<([f64; 8], DVec3)> {
         let mut lo = [0usize; 3];
-        let mut t = [0.0f64; 3];
+        let mut t = DVec3::ZERO;
         for a in 0..3 {
             let max = (self.dims[a] - 1) as f64;
             if !(p[a] >= 0.0 && p[a] <= max) {
@@ -86,55 +154,42 @@ impl<'v> SmoothedVolume<'v> {
             t[a] = p[a] - cell as f64;
         }
         let hi = [0, 1, 2].map(|a| (lo[a] + 1).min(self.dims[a] - 1));
-        let v = |i: usize, j: usize, k: usize| self.voxel(i, j, k);
-        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
-        let c00 = lerp(v(lo[0], lo[1], lo[2]), v(hi[0], lo[1], lo[2]), t[0]);
-        let c10 = lerp(v(lo[0], hi[1], lo[2]), v(hi[0], hi[1], lo[2]), t[0]);
-        let c01 = lerp(v(lo[0], lo[1], hi[2]), v(hi[0], lo[1], hi[2]), t[0]);
-        let c11 = lerp(v(lo[0], hi[1], hi[2]), v(hi[0], hi[1], hi[2]), t[0]);
-        Some(lerp(lerp(c00, c10, t[1]), lerp(c01, c11, t[1]), t[2]))
+        let corner = |n: usize| {
+            [
+                if n & 1 == 0 { lo[0] } else { hi[0] },
+                if n & 2 == 0 { lo[1] } else { hi[1] },
+                if n & 4 == 0 { lo[2] } else { hi[2] },
+            ]
+        };
+        let one_brick = (0..3).all(|a| lo[a] >> BRICK_BITS == hi[a] >> BRICK_BITS);
+        let corners = if one_brick {
+            let brick = self.brick(lo.map(|v| v >> BRICK_BITS));
+            std::array::from_fn(|n| {
+                let [i, j, k] = corner(n);
+                brick[local(i, j, k)] as f64
+            })
+        } else {
+            std::array::from_fn(|n| {
+                let [i, j, k] = corner(n);
+                self.voxel(i, j, k)
+            })
+        };
+        Some((corners, t))
     }
 
-    pub fn sample_world(&self, world: DVec3) -> Option<f64> {
-        self.sample_index(self.geometry().world_to_index(world))
-    }
-
-    /// The gradient (intensity per mm, world axes) at `world`: central differences one voxel
-    /// either way along each grid axis (one-sided at the volume's faces); `None` outside.
-    pub fn gradient_world(&self, world: DVec3) -> Option<DVec3> {
-        let geometry = self.geometry();
-        let index = geometry.world_to_index(world);
-        let here = self.sample_index(index)?;
-        let mut per_index = DVec3::ZERO;
-        for a in 0..3 {
-            let mut step = DVec3::ZERO;
-            step[a] = 1.0;
-            let ahead = self.sample_index(index + step);
-            let behind = self.sample_index(index - step);
-            per_index[a] = match (behind, ahead) {
-                (Some(b), Some(f)) => 0.5 * (f - b),
-                (None, Some(f)) => f - here,
-                (Some(b), None) => here - b,
-                (None, None) => 0.0,
-            };
-        }
-        // index = W·(world − origin), so ∂I/∂world = Wᵀ·∂I/∂index.
-        Some(geometry.world_to_index_matrix().transpose() * per_index)
-    }
-
-    /// Voxels of brick `b` per axis (the last bricks may be cut by the volume's faces).
+    /// Voxels of brick `b` per axis inside the volume (the last bricks are cut by its faces).
     fn brick_extent(&self, b: [usize; 3]) -> [usize; 3] {
         [0, 1, 2].map(|a| BRICK.min(self.dims[a] - b[a] * BRICK))
     }
 
-    fn brick(&self, b: [usize; 3]) -> &[f32] {
+    fn brick(&self, b: [usize; 3]) -> &[f32; BRICK_VOXELS] {
         let n = b[0] + self.bricks_per_axis[0] * (b[1] + self.bricks_per_axis[1] * b[2]);
         self.bricks[n].get_or_init(|| self.smooth_brick(b))
     }
 
-    /// The smoothed voxels of brick `b`, i fastest: the raw voxels around it (the kernels'
-    /// reach beyond it, faces extended) smoothed along i, then j, then k.
-    fn smooth_brick(&self, b: [usize; 3]) -> Box<[f32]> {
+    /// The smoothed voxels of brick `b` (at `local` places): the raw voxels around it (the
+    /// kernels' reach beyond it, faces extended) smoothed along i, then j, then k.
+    fn smooth_brick(&self, b: [usize; 3]) -> Box<[f32; BRICK_VOXELS]> {
         let extent = self.brick_extent(b);
         let start = b.map(|v| v * BRICK);
         let reach = self.kernels.clone().map(|k| k.len() / 2);
@@ -146,30 +201,69 @@ impl<'v> SmoothedVolume<'v> {
             )
         });
         let size = |r: &[(isize, isize); 3]| r.map(|(lo, hi)| (hi - lo) as usize);
-        let clamp = |v: isize, a: usize| v.clamp(0, self.dims[a] as isize - 1) as usize;
-        let n = size(&ranges);
-        let mut values = Vec::with_capacity(n[0] * n[1] * n[2]);
-        for k in ranges[2].0..ranges[2].1 {
-            for j in ranges[1].0..ranges[1].1 {
-                for i in ranges[0].0..ranges[0].1 {
-                    values.push(self.volume.get_f64(clamp(i, 0), clamp(j, 1), clamp(k, 2)));
-                }
-            }
-        }
+        let mut values = self.volume.dispatch(ReadBox {
+            ranges,
+            dims: self.dims,
+        });
+        let unknown = values.iter().any(|v| !v.is_finite());
         for axis in 0..3 {
             let before = size(&ranges);
             let mut after_ranges = ranges;
             after_ranges[axis] = (start[axis] as isize, (start[axis] + extent[axis]) as isize);
             let after = size(&after_ranges);
-            values = convolve_axis(&values, before, after, axis, &self.kernels[axis]);
+            let kernel = &self.kernels[axis];
+            values = if unknown {
+                convolve_axis_with_unknowns(&values, before, after, axis, kernel)
+            } else {
+                convolve_axis(&values, before, after, axis, kernel)
+            };
             ranges = after_ranges;
         }
-        values.into_iter().map(|v| v as f32).collect()
+        let mut brick = Box::new([f32::NAN; BRICK_VOXELS]);
+        let mut smoothed = values.into_iter();
+        for k in 0..extent[2] {
+            for j in 0..extent[1] {
+                for i in 0..extent[0] {
+                    brick[local(i, j, k)] = smoothed.next().expect("one value per voxel");
+                }
+            }
+        }
+        brick
     }
 }
 
+/// Reads the voxels of a box of index ranges (any of them may reach beyond the volume, whose
+/// faces are then extended), i fastest, as f32.
+struct ReadBox {
+    ranges: [(isize, isize); 3],
+    dims: [usize; 3],
+}
+
+impl VoxelVisitor for ReadBox {
+    type Output = Vec<f32>;
+
+    fn visit<T: Scalar>(self, volume: &TypedVolume<'_, T>) -> Vec<f32> {
+        let clamp = |v: isize, a: usize| v.clamp(0, self.dims[a] as isize - 1) as usize;
+        let [(i0, i1), (j0, j1), (k0, k1)] = self.ranges;
+        let mut values = Vec::with_capacity(((i1 - i0) * (j1 - j0) * (k1 - k0)) as usize);
+        for k in k0..k1 {
+            for j in j0..j1 {
+                let (j, k) = (clamp(j, 1), clamp(k, 2));
+                values.extend((i0..i1).map(|i| volume.get(clamp(i, 0), j, k).to_f64() as f32));
+            }
+        }
+        values
+    }
+}
+
+/// A voxel's place in its brick.
+fn local(i: usize, j: usize, k: usize) -> usize {
+    let m = BRICK - 1;
+    (i & m) | (j & m) << BRICK_BITS | (k & m) << (2 * BRICK_BITS)
+}
+
 /// A sampled Gaussian of `sigma` voxels, normalised; `[1.0]` (no smoothing) for σ = 0.
-fn gaussian_kernel(sigma: f64) -> Vec<f64> {
+fn gaussian_kernel(sigma: f64) -> Vec<f32> {
     if !(sigma.is_finite() && sigma > 0.0) {
         return vec![1.0];
     }
@@ -178,25 +272,49 @@ fn gaussian_kernel(sigma: f64) -> Vec<f64> {
         .map(|t| (-0.5 * (t as f64 / sigma).powi(2)).exp())
         .collect();
     let sum: f64 = weights.iter().sum();
-    weights.into_iter().map(|w| w / sum).collect()
+    weights.into_iter().map(|w| (w / sum) as f32).collect()
 }
 
 /// Convolves `values` (an `input` box, i fastest) along `axis` with `kernel`, keeping the
 /// middle `output[axis]` positions of that axis (the kernel's reach is cut off either side).
+/// Row by row: each tap adds a weighted row of the input to a row of the output.
 fn convolve_axis(
-    values: &[f64],
+    values: &[f32],
     input: [usize; 3],
     output: [usize; 3],
     axis: usize,
-    kernel: &[f64],
-) -> Vec<f64> {
+    kernel: &[f32],
+) -> Vec<f32> {
+    let strides = [1, input[0], input[0] * input[1]];
+    let mut out = vec![0.0f32; output[0] * output[1] * output[2]];
+    for (row, out_row) in out.chunks_exact_mut(output[0]).enumerate() {
+        let (j, k) = (row % output[1], row / output[1]);
+        let base = j * strides[1] + k * strides[2];
+        for (t, &w) in kernel.iter().enumerate() {
+            let first = base + t * strides[axis];
+            for (o, v) in out_row.iter_mut().zip(&values[first..first + output[0]]) {
+                *o += w * v;
+            }
+        }
+    }
+    out
+}
+
+/// [`convolve_axis`] where some voxels are unknown (non-finite): they stay unknown, and the
+/// others average only their known neighbours (normalised convolution).
+fn convolve_axis_with_unknowns(
+    values: &[f32],
+    input: [usize; 3],
+    output: [usize; 3],
+    axis: usize,
+    kernel: &[f32],
+) -> Vec<f32> {
     let strides = [1, input[0], input[0] * input[1]];
     let mut out = Vec::with_capacity(output[0] * output[1] * output[2]);
     for k in 0..output[2] {
         for j in 0..output[1] {
             for i in 0..output[0] {
-                let at = [i, j, k];
-                let base = at[0] * strides[0] + at[1] * strides[1] + at[2] * strides[2];
+                let base = i + j * strides[1] + k * strides[2];
                 let centre = values[base + kernel.len() / 2 * strides[axis]];
                 let (mut sum, mut weight) = (0.0, 0.0);
                 for (t, w) in kernel.iter().enumerate() {
@@ -209,7 +327,7 @@ fn convolve_axis(
                 out.push(if centre.is_finite() {
                     sum / weight
                 } else {
-                    f64::NAN
+                    f32::NAN
                 });
             }
         }
@@ -250,11 +368,11 @@ mod tests {
             let exact = 3.0 * i as f64 - 2.0 * j as f64 + 5.0 * k as f64;
             assert!((s.voxel(i, j, k) - exact).abs() < 1e-3, "{i} {j} {k}");
         }
-        let g = s.gradient_world(DVec3::new(12.0, 12.0, 12.0)).unwrap();
-        assert!(
-            (g - DVec3::new(3.0 / 0.8, -2.0 / 0.8, 5.0 / 1.5)).length() < 1e-3,
-            "{g}"
-        );
+        let world = DVec3::new(12.3, 11.9, 14.2);
+        let (v, g) = s.sample_with_gradient_world(world).unwrap();
+        assert!((v - s.sample_world(world).unwrap()).abs() < 1e-9);
+        let exact = DVec3::new(3.0 / 0.8, -2.0 / 0.8, 5.0 / 1.5);
+        assert!((g - exact).length() < 1e-3, "{g}");
     }
 
     #[test]
@@ -272,16 +390,16 @@ mod tests {
         for axis in 0..3 {
             let r = kernels[axis].len() / 2;
             let mut next = full.clone();
-            for n in 0..full.len() {
+            for (n, smoothed) in next.iter_mut().enumerate() {
                 let mut at = [n % dims[0], n / dims[0] % dims[1], n / (dims[0] * dims[1])];
                 let centre = at[axis] as isize;
                 let mut sum = 0.0;
-                for (t, w) in kernels[axis].iter().enumerate() {
+                for (t, &w) in kernels[axis].iter().enumerate() {
                     at[axis] = (centre + t as isize - r as isize).clamp(0, dims[axis] as isize - 1)
                         as usize;
-                    sum += w * full[at[0] + dims[0] * (at[1] + dims[1] * at[2])];
+                    sum += w as f64 * full[at[0] + dims[0] * (at[1] + dims[1] * at[2])];
                 }
-                next[n] = sum;
+                *smoothed = sum;
             }
             full = next;
         }
@@ -294,7 +412,11 @@ mod tests {
     #[test]
     fn unknown_voxels_stay_where_they_are() {
         // A plate of NaN at i = 10: its neighbours average their finite neighbours.
-        let img = image([20, 12, 12], [1.0; 3], |i, _, _| if i == 10 { f64::NAN } else { 5.0 });
+        let img = image(
+            [20, 12, 12],
+            [1.0; 3],
+            |i, _, _| if i == 10 { f64::NAN } else { 5.0 },
+        );
         let s = SmoothedVolume::new(img.view(), 1.0);
         assert!(s.voxel(10, 6, 6).is_nan());
         assert!((s.voxel(9, 6, 6) - 5.0).abs() < 1e-6);

@@ -118,14 +118,13 @@ impl Border {
                 speed: self.window.inflation(intensity),
             });
         }
-        let coarse = &image.coarse;
         let no_edge = || {
-            coarse
-                .sample_world(x)
-                .is_some_and(|v| self.window.wide_contains(v))
-                && coarse
-                    .gradient_world(x)
-                    .is_some_and(|g| g.length() < EDGE_FRACTION * self.edge_strength)
+            image
+                .coarse
+                .sample_with_gradient_world(x)
+                .is_some_and(|(v, g)| {
+                    self.window.wide_contains(v) && g.length() < EDGE_FRACTION * self.edge_strength
+                })
         };
         Some(if no_edge() {
             Place {

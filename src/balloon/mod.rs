@@ -16,6 +16,7 @@ pub mod seed_statistics;
 mod segmenter;
 pub mod surface;
 mod touching;
+mod untangle;
 
 pub use params::BalloonParams;
 pub use segmenter::{Phase, PhaseSeconds, ProgressCallback, SegmentationStats, Segmenter};

@@ -266,7 +266,7 @@ impl Profile {
 /// `values` smoothed by a Gaussian of `sigma` samples, the ends extended by their last values
 /// (a copy for σ = 0).
 fn gaussian_smoothed(values: &[f64], sigma: f64) -> Vec<f64> {
-    if !(sigma > 0.0) {
+    if sigma.is_nan() || sigma <= 0.0 {
         return values.to_vec();
     }
     let reach = (3.0 * sigma).ceil() as isize;

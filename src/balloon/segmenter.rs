@@ -13,6 +13,7 @@
 //! Each segmenter has its own thread pool of the requested size, and every result is the
 //! same for any size.
 
+use std::collections::BTreeSet;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -26,6 +27,7 @@ use super::reparametrize::{inherited_states, reparametrize, Keep};
 use super::seed_statistics::{self, SeedStatistics};
 use super::surface::{Surface, VertexState};
 use super::touching::cut_touching;
+use super::untangle;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::mesh_checks;
@@ -392,7 +394,9 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     /// Freezes the vertices of every triangle that intersects another (paper, section 3), and
     /// the rest of each moving front that touched the balloon (frozen at the border, so that it
     /// does not grow on inside the balloon's own interior until re-parametrisation merges the
-    /// lobes); returns how many vertices were newly frozen.
+    /// lobes); returns how many vertices were newly frozen. Pairs a few rings apart on the
+    /// surface are folds of the mesh, not contacts: their patch is relaxed instead
+    /// (`untangle`).
     pub fn freeze_self_intersections(&mut self) -> Result<usize> {
         let start = Instant::now();
         let front = Front::of(&self.surface);
@@ -405,22 +409,34 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         let pairs = self
             .pool
             .install(|| self_intersections_among(&local, &local_active))?;
+        let corners = |t: u32| {
+            self.surface
+                .triangle(near[t as usize])
+                .expect("near triangles are live")
+        };
+        let (folds, contacts): (Vec<_>, Vec<_>) = pairs
+            .into_iter()
+            .partition(|&(a, b)| untangle::is_fold(&self.surface, corners(a), corners(b)));
+        let folded: BTreeSet<u32> = folds
+            .iter()
+            .flat_map(|&(a, b)| corners(a).into_iter().chain(corners(b)))
+            .collect();
+        let contacts: Vec<[u32; 3]> = contacts
+            .iter()
+            .flat_map(|&(a, b)| [corners(a), corners(b)])
+            .collect();
+        if !folded.is_empty() {
+            let (image, border) = (&self.image, self.border);
+            untangle::relax(&mut self.surface, &folded, |p| border.passable(image, p));
+        }
         let mut frozen = 0;
         let mut fronts = Vec::new();
-        for (a, b) in pairs {
-            for t in [a, b] {
-                let corners = self
-                    .surface
-                    .triangle(near[t as usize])
-                    .expect("near triangles are live");
-                for v in corners {
-                    let state = &mut self.surface.states_mut()[v as usize];
-                    if *state != VertexState::FrozenBySelfIntersection {
-                        *state = VertexState::FrozenBySelfIntersection;
-                        frozen += 1;
-                        fronts.push(v);
-                    }
-                }
+        for v in contacts.into_iter().flatten() {
+            let state = &mut self.surface.states_mut()[v as usize];
+            if *state != VertexState::FrozenBySelfIntersection {
+                *state = VertexState::FrozenBySelfIntersection;
+                frozen += 1;
+                fronts.push(v);
             }
         }
         frozen += self.freeze_fronts(fronts);
