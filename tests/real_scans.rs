@@ -259,7 +259,40 @@ fn aorta_final_states_are_those_of_the_balloon_not_all_moving() {
 }
 
 #[test]
-#[ignore = "MSSD 0.176 mm, not 0.15: even the best threshold surface of this scan (1195) is 0.16 mm from vmtk's; see BENCHMARKS.md, Balloon"]
+fn aorta_from_seeds_all_along_its_lumen_is_one_genus_zero_surface() {
+    // Regression: the topology hung on the seed. One voxel from the README seed the balloon
+    // came out with genus 1 or 2 or in two components, and the README seed given as its voxel
+    // index (74, 150, 15) rather than its rounded world position came out genus 1: fingers of
+    // the front met around dips of the fading lumen, and folds of the mesh froze the front.
+    let Some(dir) = data_dir() else {
+        return;
+    };
+    let image = io::read_image(&dir.join("vmtk-aorta/aorta.mha")).unwrap();
+    let geometry = *image.geometry();
+    let seeds = [
+        [74, 150, 15],
+        [74, 149, 15],
+        [74, 150, 16],
+        [75, 150, 15],
+        [74, 180, 15],
+        [77, 132, 15],
+        [72, 168, 14],
+        [75, 171, 13],
+    ];
+    for index in seeds {
+        let seed = geometry.index_to_world(DVec3::from(index.map(f64::from)));
+        let mut segmenter = Segmenter::new(image.view(), BalloonParams::default(), seed).unwrap();
+        let (mesh, _) = segmenter.segment().unwrap();
+        let report = mesh_checks::check(&mesh);
+        eprintln!("aorta from {index:?}: {report:?} {:?}", segmenter.stats());
+        assert!(report.is_valid_closed_surface(), "{index:?}: {report:?}");
+        assert_eq!(report.components, 1, "{index:?}: {report:?}");
+        assert_eq!(report.genus(), Some(0), "{index:?}: {report:?}");
+    }
+}
+
+#[test]
+#[ignore = "MSSD 0.179 mm, not 0.15: 0.05 mm of it are the roots of two side branches that the balloon follows and vmtk's surface leaves out; see BENCHMARKS.md, Balloon"]
 fn aorta_balloon_surface_distance_to_vmtks_reference() {
     let Some(score) = aorta_score() else {
         return;

@@ -96,6 +96,8 @@ impl<'v> ImageScales<'v> {
 pub(crate) struct Place {
     /// Whether the balloon may go there.
     pub passable: bool,
+    /// Whether the fine image is inside the window there.
+    pub in_window: bool,
     /// Inflation speed there (before the inflation weight).
     pub speed: f64,
 }
@@ -115,6 +117,7 @@ impl Border {
         if self.window.contains(intensity) {
             return Some(Place {
                 passable: true,
+                in_window: true,
                 speed: self.window.inflation(intensity),
             });
         }
@@ -129,11 +132,13 @@ impl Border {
         Some(if no_edge() {
             Place {
                 passable: true,
+                in_window: false,
                 speed: BORDER_SPEED,
             }
         } else {
             Place {
                 passable: false,
+                in_window: false,
                 speed: CONTAINING_SPEED,
             }
         })

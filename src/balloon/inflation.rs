@@ -112,17 +112,39 @@ impl Stepper<'_, '_> {
         if same_side(target) {
             return (target, VertexState::Moving);
         }
-        // The border (or the volume's edge) lies in (x, target]: bisect onto it.
+        // The border (or the volume's edge) lies in (x, target]: bisect onto it. From inside
+        // the window, first onto where the fine image leaves it, which needs no coarse sample
+        // (most crossings are edges and end there); only if that is no edge, on beyond it.
+        let window = self.border.window;
+        let in_window = |p: DVec3| {
+            self.image
+                .fine
+                .sample_world(p)
+                .is_some_and(|v| window.contains(v))
+        };
         let (mut lo, mut hi) = (0.0, 1.0);
-        for _ in 0..BISECTIONS {
-            let mid = 0.5 * (lo + hi);
-            if same_side(x + mid * dx) {
-                lo = mid;
-            } else {
-                hi = mid;
+        if here.in_window {
+            bisect(&mut lo, &mut hi, |t| in_window(x + t * dx));
+            if !self.border.passable(self.image, x + hi * dx) {
+                return (x + lo * dx, VertexState::FrozenAtBorder);
             }
+            lo = hi;
+            hi = 1.0;
         }
+        bisect(&mut lo, &mut hi, |t| same_side(x + t * dx));
         (x + lo * dx, VertexState::FrozenAtBorder)
+    }
+}
+
+/// Halves `[lo, hi]` [`BISECTIONS`] times, keeping `on_side(lo)` true and `on_side(hi)` false.
+fn bisect(lo: &mut f64, hi: &mut f64, on_side: impl Fn(f64) -> bool) {
+    for _ in 0..BISECTIONS {
+        let mid = 0.5 * (*lo + *hi);
+        if on_side(mid) {
+            *lo = mid;
+        } else {
+            *hi = mid;
+        }
     }
 }
 

@@ -134,7 +134,12 @@ fn fill_passable_gaps(
 /// Moves outside the components of the inside of `field` (6-connected grid points) that hold
 /// no seed: the grid points next to each seed decide, and if no seed finds the inside (it
 /// always should), the largest component stays.
-fn keep_seeded_components(field: &mut [f64], dims: [usize; 3], grid: &Geometry, seeds: &[DVec3]) {
+pub(super) fn keep_seeded_components(
+    field: &mut [f64],
+    dims: [usize; 3],
+    grid: &Geometry,
+    seeds: &[DVec3],
+) {
     let inside: Vec<bool> = field.iter().map(|&v| v < 0.0).collect();
     let (labels, count) = morphology::components(&inside, dims);
     if count <= 1 {

@@ -55,6 +55,15 @@ const TOUCHING_EDGE_LENGTHS: f64 = 2.5;
 /// front for the self-intersection search: about the size of a triangle's box.
 const SEARCH_CELLS: f64 = 2.0;
 
+/// Splits the edges longer than `split`, collapses those shorter than `collapse` and flips for
+/// valence (`remesh`), on the moving front.
+fn remesh_surface(surface: &mut Surface, split: f64, collapse: f64) -> Result<()> {
+    surface.split_long_edges(split)?;
+    surface.collapse_short_edges(collapse, split)?;
+    surface.flip_edges_for_valence();
+    Ok(())
+}
+
 /// Whether the balloon is refined after a re-parametrisation, or the new surface is final.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum AfterReparametrization {
@@ -323,11 +332,19 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             edge_length: self.edge_length,
             max_step: self.params.step_fraction * self.volume.geometry().min_spacing(),
         };
-        let (surface, scratch) = (&mut self.surface, &mut self.scratch);
-        let mut report = self.pool.install(|| stepper.step(surface, scratch));
         self.stats.iterations += 1;
-        if self.stats.iterations % REMESH_INTERVAL == 0 {
-            self.remesh()?;
+        // One hand-over to the pool per step: remeshing goes with the step when it is due.
+        let remesh = (self.stats.iterations % REMESH_INTERVAL == 0).then(|| self.remesh_lengths());
+        let (surface, scratch) = (&mut self.surface, &mut self.scratch);
+        let mut report = self.pool.install(|| -> Result<StepReport> {
+            let report = stepper.step(surface, scratch);
+            if let Some((split, collapse)) = remesh {
+                remesh_surface(surface, split, collapse)?;
+            }
+            Ok(report)
+        })?;
+        if remesh.is_some() {
+            self.after_remeshing()?;
         }
         self.stats.seconds.add(phase, start.elapsed().as_secs_f64());
         if self.stats.iterations % self.params.self_intersection_interval == 0 {
@@ -348,18 +365,24 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         self.surface.moving_vertices().count()
     }
 
-    fn remesh(&mut self) -> Result<()> {
-        let (split, collapse) = (
+    /// The lengths (mm) above which edges are split and below which they are collapsed.
+    fn remesh_lengths(&self) -> (f64, f64) {
+        (
             SPLIT_ABOVE * self.edge_length,
             COLLAPSE_BELOW * self.edge_length,
-        );
+        )
+    }
+
+    fn remesh(&mut self) -> Result<()> {
+        let (split, collapse) = self.remesh_lengths();
         let surface = &mut self.surface;
-        self.pool.install(|| -> Result<()> {
-            surface.split_long_edges(split)?;
-            surface.collapse_short_edges(collapse, split)?;
-            surface.flip_edges_for_valence();
-            Ok(())
-        })?;
+        self.pool
+            .install(|| remesh_surface(surface, split, collapse))?;
+        self.after_remeshing()
+    }
+
+    /// The leak guard, and compaction when deleted slots outnumber live ones.
+    fn after_remeshing(&mut self) -> Result<()> {
         if self.surface.vertex_count() > self.params.max_vertices {
             return Err(Error::leak(format!(
                 "the balloon grew past {} vertices: it has most likely leaked out of the \

@@ -18,7 +18,7 @@ use std::collections::{BinaryHeap, HashMap};
 use glam::{DMat3, DVec3};
 
 use super::fast_hash::FastHash;
-use super::reparametrize::{covering_grid, isosurface, without_cavities};
+use super::reparametrize::{covering_grid, isosurface, keep_seeded_components, without_cavities};
 use crate::error::Result;
 use crate::geometry::Geometry;
 use crate::mesh::TriMesh;
@@ -77,6 +77,7 @@ pub(crate) fn cut_touching(
     for n in cut {
         field[n] = outside;
     }
+    keep_seeded_components(&mut field, dims, &grid, seeds);
     let voxel: f64 = spacing.iter().product();
     Ok(Some(without_cavities(
         isosurface(field, dims, &grid, 0.0)?,
