@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Seconds per phase of the balloon (`balloonseg segment --stats`) on the five phantoms (10%
+# Seconds per phase of the balloon (`balloonseg segment --stats`) on the six phantoms (10%
 # noise, 0.8 x 0.8 x 1.5 mm voxels, oblique grid) and the two real scans, for each of the given
 # `balloonseg` binaries (e.g. an older build and the current one), alternating, best of 3 totals
 # per case and binary. Prints the rows of BENCHMARKS.md's phase table.
@@ -14,8 +14,8 @@ trap 'rm -rf "$work"' EXIT
 [ $# -gt 0 ] || { echo "usage: $0 LABEL=BINARY [LABEL=BINARY ...]" >&2; exit 2; }
 first="${1#*=}"
 cases=(sphere:0,0,0 torus:0,12,0 double-torus:12,12,0 y-vessel:0,0,-10 touching-tubes:-4,0,0
-       aorta:-221.484,-156.445,22.501 carotid:117,103,9)
-for c in "${cases[@]:0:5}"; do
+       fading-tube:0,-20,0 aorta:-221.484,-156.445,22.501 carotid:117,103,9)
+for c in "${cases[@]:0:6}"; do
   "$first" phantom "${c%%:*}" -o "$work/${c%%:*}.mha" --spacing 0.8,0.8,1.5 --oblique --noise 0.1 >/dev/null
 done
 total() { python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['seconds']['total'])" "$1"; }

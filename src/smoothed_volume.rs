@@ -85,8 +85,9 @@ impl<'v> SmoothedVolume<'v> {
     }
 
     /// The trilinear interpolant's value and gradient (intensity per mm, world axes) at
-    /// `world`; `None` outside the volume.
-    pub fn sample_with_trilinear_gradient_world(&self, world: DVec3) -> Option<(f64, DVec3)> {
+    /// `world`; `None` outside the volume. One cell's eight voxels give both; the gradient
+    /// jumps a little across cell faces, too little on a smoothed image to matter.
+    pub fn sample_with_gradient_world(&self, world: DVec3) -> Option<(f64, DVec3)> {
         let geometry = self.geometry();
         let (c, t) = self.cell(geometry.world_to_index(world))?;
         let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
@@ -105,34 +106,6 @@ impl<'v> SmoothedVolume<'v> {
         // index = W·(world − origin), so ∂I/∂world = Wᵀ·∂I/∂index.
         Some((
             value,
-            geometry.world_to_index_matrix().transpose() * per_index,
-        ))
-    }
-
-    /// The value and gradient (intensity per mm, world axes) at `world`, the gradient by
-    /// central differences one voxel either way along each grid axis (one-sided at the
-    /// volume's faces); `None` outside the volume.
-    pub fn sample_with_gradient_world(&self, world: DVec3) -> Option<(f64, DVec3)> {
-        let geometry = self.geometry();
-        let index = geometry.world_to_index(world);
-        let here = self.sample_index(index)?;
-        let mut per_index = DVec3::ZERO;
-        for a in 0..3 {
-            let mut step = DVec3::ZERO;
-            step[a] = 1.0;
-            per_index[a] = match (
-                self.sample_index(index - step),
-                self.sample_index(index + step),
-            ) {
-                (Some(b), Some(f)) => 0.5 * (f - b),
-                (None, Some(f)) => f - here,
-                (Some(b), None) => here - b,
-                (None, None) => 0.0,
-            };
-        }
-        // index = W·(world − origin), so ∂I/∂world = Wᵀ·∂I/∂index.
-        Some((
-            here,
             geometry.world_to_index_matrix().transpose() * per_index,
         ))
     }
@@ -246,10 +219,27 @@ impl VoxelVisitor for ReadBox {
         let clamp = |v: isize, a: usize| v.clamp(0, self.dims[a] as isize - 1) as usize;
         let [(i0, i1), (j0, j1), (k0, k1)] = self.ranges;
         let mut values = Vec::with_capacity(((i1 - i0) * (j1 - j0) * (k1 - k0)) as usize);
+        // The part of each row inside the volume, and how far its ends are extended.
+        let (inner0, inner1) = (clamp(i0, 0), clamp(i1 - 1, 0) + 1);
+        let (before, after) = (
+            (inner0 as isize - i0) as usize,
+            (i1 - inner1 as isize) as usize,
+        );
         for k in k0..k1 {
             for j in j0..j1 {
                 let (j, k) = (clamp(j, 1), clamp(k, 2));
-                values.extend((i0..i1).map(|i| volume.get(clamp(i, 0), j, k).to_f64() as f32));
+                let first = volume.get(inner0, j, k).to_f64() as f32;
+                let last = volume.get(inner1 - 1, j, k).to_f64() as f32;
+                values.extend(std::iter::repeat(first).take(before));
+                match volume.row(j, k) {
+                    Some(row) => {
+                        values.extend(row[inner0..inner1].iter().map(|v| v.to_f64() as f32))
+                    }
+                    None => {
+                        values.extend((inner0..inner1).map(|i| volume.get(i, j, k).to_f64() as f32))
+                    }
+                }
+                values.extend(std::iter::repeat(last).take(after));
             }
         }
         values

@@ -37,7 +37,8 @@ enum Command {
     Check(check::Args),
     /// Signed distance (mm, negative inside) from a closed mesh on the grid of a volume.
     Distance(distance::Args),
-    /// Write a synthetic test volume (sphere, torus, double-torus, y-vessel, touching-tubes).
+    /// Write a synthetic test volume (sphere, torus, double-torus, y-vessel, touching-tubes,
+    /// fading-tube).
     Phantom(phantom::Args),
     /// Run on the built-in phantoms, no input needed; writes meshes and a report.
     Demo(demo::Args),

@@ -8,7 +8,7 @@ use serde_json::json;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// sphere, torus, double-torus, y-vessel or touching-tubes.
+    /// sphere, torus, double-torus, y-vessel, touching-tubes or fading-tube.
     name: String,
     #[command(flatten)]
     look: Look,
