@@ -18,7 +18,7 @@ use std::sync::OnceLock;
 use glam::DVec3;
 
 use crate::geometry::Geometry;
-use crate::volume::{Scalar, TypedVolume, Volume, VoxelVisitor};
+use crate::volume::{Cell, Scalar, TypedVolume, Volume, VoxelVisitor};
 
 /// Voxels per brick side; every brick is stored whole (the last ones padded), so that a voxel's
 /// place in its brick is bit arithmetic.
@@ -71,13 +71,8 @@ impl<'v> SmoothedVolume<'v> {
 
     /// Trilinear interpolation at a continuous index; `None` outside `[0, dims-1]`.
     pub fn sample_index(&self, p: DVec3) -> Option<f64> {
-        let (corners, t) = self.cell(p)?;
-        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
-        let c00 = lerp(corners[0], corners[1], t.x);
-        let c10 = lerp(corners[2], corners[3], t.x);
-        let c01 = lerp(corners[4], corners[5], t.x);
-        let c11 = lerp(corners[6], corners[7], t.x);
-        Some(lerp(lerp(c00, c10, t.y), lerp(c01, c11, t.y), t.z))
+        let cell = Cell::around(p, self.dims)?;
+        Some(cell.interpolate(self.corners(&cell)))
     }
 
     pub fn sample_world(&self, world: DVec3) -> Option<f64> {
@@ -89,7 +84,8 @@ impl<'v> SmoothedVolume<'v> {
     /// jumps a little across cell faces, too little on a smoothed image to matter.
     pub fn sample_with_gradient_world(&self, world: DVec3) -> Option<(f64, DVec3)> {
         let geometry = self.geometry();
-        let (c, t) = self.cell(geometry.world_to_index(world))?;
+        let cell = Cell::around(geometry.world_to_index(world), self.dims)?;
+        let (c, t) = (self.corners(&cell), cell.t);
         let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
         // Along x on the cell's four x edges (y0z0, y1z0, y0z1, y1z1), then across them.
         let [e00, e10, e01, e11] = [0, 2, 4, 6].map(|n| lerp(c[n], c[n + 1], t.x));
@@ -110,44 +106,15 @@ impl<'v> SmoothedVolume<'v> {
         ))
     }
 
-    /// The eight voxels of the cell around `p` (x fastest, then y, then z) and `p`'s place in
-    /// it; `None` outside `[0, dims-1]`. The corners of most cells lie in one brick.
-    fn cell(&self, p: DVec3) -> Option<([f64; 8], DVec3)> {
-        let mut lo = [0usize; 3];
-        let mut t = DVec3::ZERO;
-        for a in 0..3 {
-            let max = (self.dims[a] - 1) as f64;
-            if !(p[a] >= 0.0 && p[a] <= max) {
-                return None;
-            }
-            // Not negative, so truncation is the floor; on the last plane the cell below is
-            // used with weight 1 on its upper corner.
-            let cell = (p[a] as usize).min(self.dims[a].saturating_sub(2));
-            lo[a] = cell;
-            t[a] = p[a] - cell as f64;
-        }
-        let hi = [0, 1, 2].map(|a| (lo[a] + 1).min(self.dims[a] - 1));
-        let corner = |n: usize| {
-            [
-                if n & 1 == 0 { lo[0] } else { hi[0] },
-                if n & 2 == 0 { lo[1] } else { hi[1] },
-                if n & 4 == 0 { lo[2] } else { hi[2] },
-            ]
-        };
-        let one_brick = (0..3).all(|a| lo[a] >> BRICK_BITS == hi[a] >> BRICK_BITS);
-        let corners = if one_brick {
+    /// The smoothed voxels at a cell's corners; most cells lie in one brick.
+    fn corners(&self, cell: &Cell) -> [f64; 8] {
+        let (lo, hi) = (cell.lo, cell.hi);
+        if (0..3).all(|a| lo[a] >> BRICK_BITS == hi[a] >> BRICK_BITS) {
             let brick = self.brick(lo.map(|v| v >> BRICK_BITS));
-            std::array::from_fn(|n| {
-                let [i, j, k] = corner(n);
-                brick[local(i, j, k)] as f64
-            })
+            cell.corners().map(|[i, j, k]| brick[local(i, j, k)] as f64)
         } else {
-            std::array::from_fn(|n| {
-                let [i, j, k] = corner(n);
-                self.voxel(i, j, k)
-            })
-        };
-        Some((corners, t))
+            cell.corners().map(|[i, j, k]| self.voxel(i, j, k))
+        }
     }
 
     /// Voxels of brick `b` per axis inside the volume (the last bricks are cut by its faces).

@@ -186,38 +186,71 @@ impl<'a, T: Scalar> TypedVolume<'a, T> {
 
     /// Trilinear interpolation at a continuous index; `None` outside `[0, dims-1]` on any axis.
     pub fn sample_index(&self, p: DVec3) -> Option<f64> {
-        let p = [p.x, p.y, p.z];
+        let cell = Cell::around(p, self.dims)?;
+        let corners = cell.corners().map(|[i, j, k]| self.get(i, j, k).to_f64());
+        Some(cell.interpolate(corners))
+    }
+
+    /// Trilinear interpolation at a world position (mm).
+    pub fn sample_world(&self, world: DVec3) -> Option<f64> {
+        self.sample_index(self.geometry.world_to_index(world))
+    }
+}
+
+/// The cell of a grid of `dims` points that holds a continuous index, for trilinear
+/// interpolation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Cell {
+    /// The lowest and highest corner (equal on an axis of one point).
+    pub lo: [usize; 3],
+    pub hi: [usize; 3],
+    /// The index's place in the cell, 0–1 per axis.
+    pub t: DVec3,
+}
+
+impl Cell {
+    /// The cell around `p`; `None` outside `[0, dims-1]` on any axis.
+    #[inline(always)]
+    pub fn around(p: DVec3, dims: [usize; 3]) -> Option<Cell> {
         let mut lo = [0usize; 3];
-        let mut t = [0.0f64; 3];
+        let mut t = DVec3::ZERO;
         for a in 0..3 {
-            let max = (self.dims[a] - 1) as f64;
+            let max = (dims[a] - 1) as f64;
             if !(p[a] >= 0.0 && p[a] <= max) {
                 return None;
             }
             // On the last plane the cell below is used with weight 1 on its upper corner. The
             // coordinate is not negative, so truncating it is its floor, without the call to
             // libm's `floor` that baseline x86-64 makes (the stepper samples millions of times).
-            let cell = (p[a] as usize).min(self.dims[a].saturating_sub(2));
+            let cell = (p[a] as usize).min(dims[a].saturating_sub(2));
             lo[a] = cell;
             t[a] = p[a] - cell as f64;
         }
-        let hi = [
-            (lo[0] + 1).min(self.dims[0] - 1),
-            (lo[1] + 1).min(self.dims[1] - 1),
-            (lo[2] + 1).min(self.dims[2] - 1),
-        ];
-        let v = |i: usize, j: usize, k: usize| self.get(i, j, k).to_f64();
-        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
-        let c00 = lerp(v(lo[0], lo[1], lo[2]), v(hi[0], lo[1], lo[2]), t[0]);
-        let c10 = lerp(v(lo[0], hi[1], lo[2]), v(hi[0], hi[1], lo[2]), t[0]);
-        let c01 = lerp(v(lo[0], lo[1], hi[2]), v(hi[0], lo[1], hi[2]), t[0]);
-        let c11 = lerp(v(lo[0], hi[1], hi[2]), v(hi[0], hi[1], hi[2]), t[0]);
-        Some(lerp(lerp(c00, c10, t[1]), lerp(c01, c11, t[1]), t[2]))
+        let hi = [0, 1, 2].map(|a| (lo[a] + 1).min(dims[a] - 1));
+        Some(Cell { lo, hi, t })
     }
 
-    /// Trilinear interpolation at a world position (mm).
-    pub fn sample_world(&self, world: DVec3) -> Option<f64> {
-        self.sample_index(self.geometry.world_to_index(world))
+    /// The eight corners, x fastest, then y, then z.
+    #[inline(always)]
+    pub fn corners(&self) -> [[usize; 3]; 8] {
+        std::array::from_fn(|n| {
+            [0, 1, 2].map(|a| {
+                if n >> a & 1 == 0 {
+                    self.lo[a]
+                } else {
+                    self.hi[a]
+                }
+            })
+        })
+    }
+
+    /// The trilinear interpolation of the values at [`Cell::corners`].
+    #[inline(always)]
+    pub fn interpolate(&self, c: [f64; 8]) -> f64 {
+        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let t = self.t;
+        let [e00, e10, e01, e11] = [0, 2, 4, 6].map(|n| lerp(c[n], c[n + 1], t.x));
+        lerp(lerp(e00, e10, t.y), lerp(e01, e11, t.y), t.z)
     }
 }
 
