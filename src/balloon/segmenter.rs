@@ -4,7 +4,8 @@
 //!
 //! `segment` inflates the seed spheres until equilibrium — every vertex frozen at the border or
 //! by a self-intersection, or no vertex moving measurably — remeshing as the balloon grows and
-//! searching for self-intersections every few steps. If the balloon met itself, it is
+//! searching for self-intersections every few steps; those a few rings apart on the surface
+//! are folds of the mesh and are relaxed (`untangle`). If the balloon met itself, it is
 //! re-parametrised (signed distance + marching cubes) and refined by a few more steps; that
 //! repeats while refinement makes new contacts. The result is checked — closed, 2-manifold,
 //! outward, free of self-intersections — before it is returned; when refinement cannot keep
@@ -46,7 +47,7 @@ const STILL: f64 = 1e-3;
 /// Steps over which the enclosed volume must grow by a voxel for the balloon to count as
 /// growing: a front advancing at most a voxel per step sweeps a dozen voxels or more in that
 /// time. An even count, so that vertices flipping between two positions every step are seen
-/// in the same one (with 25, such a pair kept a fading tube's balloon "growing" for 4000 steps).
+/// in the same one, not as a balloon that keeps growing.
 const STALL_STEPS: u32 = 24;
 /// Radius, in target edge lengths, of the ball whose erosion finds the thick parts of the
 /// balloon when looking for structures that touch: thinner parts have no core of their own.
