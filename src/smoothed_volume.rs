@@ -224,12 +224,18 @@ fn gaussian_kernel(sigma: f64) -> Vec<f32> {
     if !(sigma.is_finite() && sigma > 0.0) {
         return vec![1.0];
     }
-    let reach = (KERNEL_REACH * sigma).ceil() as isize;
-    let weights: Vec<f64> = (-reach..=reach)
-        .map(|t| (-0.5 * (t as f64 / sigma).powi(2)).exp())
-        .collect();
+    let weights = gaussian_weights(sigma);
     let sum: f64 = weights.iter().sum();
     weights.into_iter().map(|w| (w / sum) as f32).collect()
+}
+
+/// `exp(−½ (t/σ)²)` for the offsets `t` within the kernel's reach (`KERNEL_REACH` σ, rounded
+/// up) either way, not normalised; σ must be positive.
+pub(crate) fn gaussian_weights(sigma: f64) -> Vec<f64> {
+    let reach = (KERNEL_REACH * sigma).ceil() as isize;
+    (-reach..=reach)
+        .map(|t| (-0.5 * (t as f64 / sigma).powi(2)).exp())
+        .collect()
 }
 
 /// Convolves `values` (an `input` box, i fastest) along `axis` with `kernel`, keeping the

@@ -35,6 +35,7 @@ use glam::DVec3;
 use super::border::IntensityWindow;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
+use crate::smoothed_volume::gaussian_weights;
 use crate::volume::Volume;
 
 /// What was estimated, for reports and for the user to override.
@@ -269,10 +270,8 @@ fn gaussian_smoothed(values: &[f64], sigma: f64) -> Vec<f64> {
     if sigma.is_nan() || sigma <= 0.0 {
         return values.to_vec();
     }
-    let reach = (3.0 * sigma).ceil() as isize;
-    let kernel: Vec<f64> = (-reach..=reach)
-        .map(|i| (-0.5 * (i as f64 / sigma).powi(2)).exp())
-        .collect();
+    let kernel = gaussian_weights(sigma);
+    let reach = (kernel.len() / 2) as isize;
     let norm: f64 = kernel.iter().sum();
     let last = values.len() as isize - 1;
     (0..values.len() as isize)
