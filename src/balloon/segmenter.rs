@@ -21,6 +21,7 @@ use glam::DVec3;
 
 use super::border::{edge_scale_mm, Border, ImageScales, IntensityWindow};
 use super::contact_search::{local_mesh, FrozenTriangles};
+use super::fairing;
 use super::front::Front;
 use super::inflation::{Scratch, StepReport, Stepper};
 use super::params::BalloonParams;
@@ -52,6 +53,10 @@ const STALL_STEPS: u32 = 24;
 /// Radius, in target edge lengths, of the ball whose erosion finds the thick parts of the
 /// balloon when looking for structures that touch: thinner parts have no core of their own.
 const TOUCHING_EDGE_LENGTHS: f64 = 2.5;
+/// Rounds of undoing the fairing around contacts before undoing it everywhere, and the rings
+/// around each contact's triangles that each round puts back.
+const UNFAIR_ROUNDS: u32 = 3;
+const UNFAIR_RINGS: usize = 2;
 /// Cell size, in target edge lengths, of the grid that finds the triangles near the moving
 /// front for the self-intersection search: about the size of a triangle's box.
 const SEARCH_CELLS: f64 = 2.0;
@@ -580,7 +585,45 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             self.freeze_self_intersections()?;
         }
         self.cut_touching()?;
-        self.validated()
+        let unfaired = self.fair();
+        self.validated(unfaired)
+    }
+
+    /// Fairs the final surface (`fairing`), unless it stopped with contacts (re-parametrised
+    /// next, in `validated`). Returns the positions before, by slot, for `validated` to put
+    /// back where fairing made the surface meet itself.
+    fn fair(&mut self) -> Option<Vec<DVec3>> {
+        if self.has_self_intersections() {
+            return None;
+        }
+        let start = Instant::now();
+        let surface = &mut self.surface;
+        let before = self.pool.install(|| fairing::fair(surface));
+        self.index_surface();
+        self.stats
+            .seconds
+            .add(Phase::Refinement, start.elapsed().as_secs_f64());
+        Some(before)
+    }
+
+    /// Puts the vertices of the triangles in `pairs` (indices into [`Self::mesh`]) and
+    /// [`UNFAIR_RINGS`] rings around them back where they were before fairing; all of them
+    /// when `pairs` is empty.
+    fn unfair(&mut self, before: &[DVec3], pairs: &[(u32, u32)]) {
+        let slots: Vec<u32> = self.surface.live_vertices().collect();
+        if pairs.is_empty() {
+            fairing::restore(&mut self.surface, before, slots, 0);
+        } else {
+            let (mesh, _) = self.mesh();
+            let corners: Vec<u32> = pairs
+                .iter()
+                .flat_map(|&(a, b)| [a, b])
+                .flat_map(|t| mesh.triangles()[t as usize])
+                .map(|v| slots[v as usize])
+                .collect();
+            fairing::restore(&mut self.surface, before, corners, UNFAIR_RINGS);
+        }
+        self.index_surface();
     }
 
     /// Cuts off the structures the balloon entered through an elongated contact with the
@@ -631,10 +674,15 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         Ok(limit)
     }
 
-    /// The current mesh if it meets the guarantees; otherwise (or straight away if it stopped
-    /// with contacts) one more re-parametrisation, without refinement or remeshing — a
-    /// marching-cubes surface has no contacts — checked again.
-    fn validated(&mut self) -> Result<(TriMesh, Vec<VertexState>)> {
+    /// The current mesh if it meets the guarantees. Where fairing (`unfaired`: the positions
+    /// before it) made the surface meet itself, it is undone around the contacts,
+    /// [`UNFAIR_ROUNDS`] times, then everywhere. Otherwise (or straight away if it
+    /// stopped with contacts) one more re-parametrisation, without refinement or remeshing —
+    /// a marching-cubes surface has no contacts — checked again.
+    fn validated(
+        &mut self,
+        mut unfaired: Option<Vec<DVec3>>,
+    ) -> Result<(TriMesh, Vec<VertexState>)> {
         let start = Instant::now();
         self.report(0.95, Phase::Validation)?;
         // A balloon that stopped with contacts cannot pass: repair it without measuring it.
@@ -642,6 +690,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         if repaired {
             self.replace_by_isosurface(AfterReparametrization::Nothing)?;
         }
+        let mut unfair_rounds = 0;
         loop {
             let (mesh, states) = self.mesh();
             let report = mesh_checks::check(&mesh);
@@ -652,6 +701,15 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                     .add(Phase::Validation, start.elapsed().as_secs_f64());
                 self.report(1.0, Phase::Validation)?;
                 return Ok((mesh, states));
+            }
+            if let Some(before) = unfaired.take() {
+                let local = unfair_rounds < UNFAIR_ROUNDS && report.is_valid_closed_surface();
+                self.unfair(&before, if local { &pairs } else { &[] });
+                if local {
+                    unfair_rounds += 1;
+                    unfaired = Some(before);
+                }
+                continue;
             }
             if repaired {
                 return Err(Error::internal(format!(
