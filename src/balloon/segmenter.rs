@@ -799,6 +799,29 @@ mod tests {
     }
 
     #[test]
+    fn fairing_that_makes_a_contact_is_undone_there_without_remeshing() {
+        let p = phantom::render(Shape::Sphere, &PhantomOptions::default()).unwrap();
+        let mut s =
+            Segmenter::new(p.image.view(), BalloonParams::default(), p.seed_world()).unwrap();
+        s.segment().unwrap();
+        let before = s.surface.positions().to_vec();
+        let reparametrizations = s.stats.reparametrizations;
+        // As if fairing had pushed one vertex through the ball and out of its far side: its
+        // fan pierces the far wall.
+        let v = s.surface.live_vertices().next().unwrap();
+        let centre = s.seeds[0];
+        let far = centre + 1.5 * (centre - before[v as usize]);
+        s.surface.positions_mut()[v as usize] = far;
+        s.index_surface();
+        assert!(!self_intersections(&s.mesh().0).is_empty());
+        let (mesh, _) = s.validated(Some(before.clone())).unwrap();
+        assert!(mesh_checks::check(&mesh).is_valid_closed_surface());
+        assert!(self_intersections(&mesh).is_empty());
+        assert_eq!(s.surface.positions(), &before[..]);
+        assert_eq!(s.stats.reparametrizations, reparametrizations);
+    }
+
+    #[test]
     fn same_mesh_for_one_and_two_threads() {
         let p = phantom::render(
             Shape::YVessel,
