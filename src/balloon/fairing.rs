@@ -16,10 +16,7 @@
 //! BENCHMARKS.md). Fairing can bring two close sheets into contact: `restore` puts the
 //! unfaired positions back around them.
 
-use std::collections::BTreeSet;
-
 use glam::DVec3;
-use rayon::prelude::*;
 
 use super::surface::Surface;
 
@@ -29,30 +26,15 @@ const MU: f64 = -0.53;
 const PASSES: usize = 20;
 
 /// Fairs `surface` in place; returns the positions before, by slot, for [`restore`]. The
-/// same result for any thread count: each pass computes every vertex from the previous one.
+/// same result for any thread count ([`Surface::umbrella_pass`]).
 pub(super) fn fair(surface: &mut Surface) -> Vec<DVec3> {
     let before = surface.positions().to_vec();
     let live: Vec<u32> = surface.live_vertices().collect();
     // The rings, gathered once: walking the half-edges on every pass cost three times more.
-    let rings: Vec<Vec<u32>> = live
-        .par_iter()
-        .map(|&v| surface.neighbours(v).collect())
-        .collect();
-    let positions = surface.positions_mut();
+    let rings = surface.rings(&live);
     for _ in 0..PASSES {
         for factor in [LAMBDA, MU] {
-            let moved: Vec<DVec3> = live
-                .par_iter()
-                .zip(&rings)
-                .map(|(&v, ring)| {
-                    let p = positions[v as usize];
-                    let sum: DVec3 = ring.iter().map(|&u| positions[u as usize]).sum();
-                    p + factor * (sum / ring.len() as f64 - p)
-                })
-                .collect();
-            for (&v, p) in live.iter().zip(moved) {
-                positions[v as usize] = p;
-            }
+            surface.umbrella_pass(&live, &rings, factor);
         }
     }
     before
@@ -66,12 +48,7 @@ pub(super) fn restore(
     around: impl IntoIterator<Item = u32>,
     rings: usize,
 ) {
-    let mut patch: BTreeSet<u32> = around.into_iter().collect();
-    for _ in 0..rings {
-        let ring: Vec<u32> = patch.iter().flat_map(|&v| surface.neighbours(v)).collect();
-        patch.extend(ring);
-    }
-    for v in patch {
+    for v in surface.neighbourhood(around, rings) {
         surface.positions_mut()[v as usize] = before[v as usize];
     }
 }

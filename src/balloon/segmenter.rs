@@ -456,7 +456,9 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .collect();
         if !folded.is_empty() {
             let (image, border) = (&self.image, self.border);
-            untangle::relax(&mut self.surface, &folded, |p| border.passable(image, p));
+            let surface = &mut self.surface;
+            self.pool
+                .install(|| untangle::relax(surface, &folded, |p| border.passable(image, p)));
         }
         let mut frozen = 0;
         let mut fronts = Vec::new();
@@ -606,15 +608,15 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         Some(before)
     }
 
-    /// Puts the vertices of the triangles in `pairs` (indices into [`Self::mesh`]) and
-    /// [`UNFAIR_RINGS`] rings around them back where they were before fairing; all of them
-    /// when `pairs` is empty.
-    fn unfair(&mut self, before: &[DVec3], pairs: &[(u32, u32)]) {
-        let slots: Vec<u32> = self.surface.live_vertices().collect();
+    /// Puts the corners of the triangles in `pairs` (of `mesh`, the current surface as
+    /// [`Self::mesh`] gave it) and [`UNFAIR_RINGS`] rings around them back where they were
+    /// before fairing; every vertex when `pairs` is empty.
+    fn unfair(&mut self, before: &[DVec3], mesh: &TriMesh, pairs: &[(u32, u32)]) {
         if pairs.is_empty() {
-            fairing::restore(&mut self.surface, before, slots, 0);
+            self.surface.positions_mut().copy_from_slice(before);
         } else {
-            let (mesh, _) = self.mesh();
+            // The mesh numbers the live slots densely, in slot order.
+            let slots: Vec<u32> = self.surface.live_vertices().collect();
             let corners: Vec<u32> = pairs
                 .iter()
                 .flat_map(|&(a, b)| [a, b])
@@ -704,7 +706,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             }
             if let Some(before) = unfaired.take() {
                 let local = unfair_rounds < UNFAIR_ROUNDS && report.is_valid_closed_surface();
-                self.unfair(&before, if local { &pairs } else { &[] });
+                self.unfair(&before, &mesh, if local { &pairs } else { &[] });
                 if local {
                     unfair_rounds += 1;
                     unfaired = Some(before);

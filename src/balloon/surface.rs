@@ -14,6 +14,8 @@
 //! to [`Surface::vertex_slots`] after a split. Only [`Surface::compact`] renumbers, and it returns
 //! the old→new map so that such data can follow.
 
+use std::collections::BTreeSet;
+
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -454,6 +456,47 @@ impl Surface {
     /// arbitrary but fixed one. Empty for a deleted or out-of-range vertex.
     pub fn neighbours(&self, v: u32) -> impl Iterator<Item = u32> + '_ {
         self.outgoing_half_edges(v).map(|h| self.dest(h))
+    }
+
+    /// The vertices `around` and every vertex within `rings` rings of them.
+    pub fn neighbourhood(
+        &self,
+        around: impl IntoIterator<Item = u32>,
+        rings: usize,
+    ) -> BTreeSet<u32> {
+        let mut patch: BTreeSet<u32> = around.into_iter().collect();
+        for _ in 0..rings {
+            let ring: Vec<u32> = patch.iter().flat_map(|&v| self.neighbours(v)).collect();
+            patch.extend(ring);
+        }
+        patch
+    }
+
+    /// The neighbours of each of `vertices`, for repeated [`Surface::umbrella_pass`]es.
+    pub fn rings(&self, vertices: &[u32]) -> Vec<Vec<u32>> {
+        vertices
+            .par_iter()
+            .map(|&v| self.neighbours(v).collect())
+            .collect()
+    }
+
+    /// One pass of the umbrella operator: each of `vertices` (neighbours `rings`, from
+    /// [`Surface::rings`]) moves `factor` of the way to its neighbours' centroid, every move
+    /// computed from the positions before the pass — so the same for any thread count.
+    pub fn umbrella_pass(&mut self, vertices: &[u32], rings: &[Vec<u32>], factor: f64) {
+        let positions = &self.positions;
+        let moved: Vec<DVec3> = vertices
+            .par_iter()
+            .zip(rings)
+            .map(|(&v, ring)| {
+                let p = positions[v as usize];
+                let sum: DVec3 = ring.iter().map(|&u| positions[u as usize]).sum();
+                p + factor * (sum / ring.len() as f64 - p)
+            })
+            .collect();
+        for (&v, p) in vertices.iter().zip(moved) {
+            self.positions[v as usize] = p;
+        }
     }
 
     /// Number of neighbours of `v` (0 for a deleted vertex).

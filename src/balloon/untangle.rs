@@ -51,29 +51,14 @@ pub(super) fn relax(
     folded: &BTreeSet<u32>,
     passable: impl Fn(DVec3) -> bool,
 ) {
-    let mut patch = folded.clone();
-    for _ in 0..PATCH_RINGS {
-        let ring: Vec<u32> = patch.iter().flat_map(|&v| surface.neighbours(v)).collect();
-        patch.extend(ring);
-    }
-    let patch: Vec<u32> = patch
+    let patch: Vec<u32> = surface
+        .neighbourhood(folded.iter().copied(), PATCH_RINGS)
         .into_iter()
         .filter(|&v| surface.states()[v as usize] != VertexState::FrozenBySelfIntersection)
         .collect();
+    let rings = surface.rings(&patch);
     for _ in 0..PASSES {
-        let moved: Vec<DVec3> = patch
-            .iter()
-            .map(|&v| {
-                let (sum, count) = surface.neighbours(v).fold((DVec3::ZERO, 0.0), |(s, n), u| {
-                    (s + surface.positions()[u as usize], n + 1.0)
-                });
-                let p = surface.positions()[v as usize];
-                p + 0.5 * (sum / count - p)
-            })
-            .collect();
-        for (&v, p) in patch.iter().zip(moved) {
-            surface.positions_mut()[v as usize] = p;
-        }
+        surface.umbrella_pass(&patch, &rings, 0.5);
     }
     for &v in &patch {
         let p = surface.positions()[v as usize];
