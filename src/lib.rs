@@ -20,6 +20,8 @@ pub mod mesh_checks;
 pub mod morphology;
 pub mod phantom;
 pub mod predicates;
+#[cfg(feature = "io")]
+pub mod render;
 pub mod self_intersection;
 pub mod signed_distance;
 pub mod smoothed_volume;

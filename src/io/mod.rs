@@ -7,7 +7,7 @@
 //! space (SPEC "Coordinates").
 
 mod compression;
-mod files;
+pub(crate) mod files;
 mod point_data;
 mod polygons;
 mod scan;
