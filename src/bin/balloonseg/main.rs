@@ -6,6 +6,7 @@ mod demo;
 mod distance;
 mod isosurface;
 mod phantom;
+mod render;
 mod segment;
 
 use std::path::PathBuf;
@@ -42,6 +43,8 @@ enum Command {
     Phantom(phantom::Args),
     /// Run on the built-in phantoms, no input needed; writes meshes and a report.
     Demo(demo::Args),
+    /// A PNG of a mesh over three slices of its volume, and a shaded 3D view of it.
+    Render(render::Args),
 }
 
 fn main() -> ExitCode {
@@ -60,6 +63,7 @@ fn main() -> ExitCode {
         Command::Distance(args) => distance::run(&args),
         Command::Phantom(args) => phantom::run(&args),
         Command::Demo(args) => demo::run(&args, cli.threads),
+        Command::Render(args) => render::run(&args),
     });
     match result {
         Ok(code) => code,
@@ -87,12 +91,22 @@ struct Output {
 
 /// Parses "x,y,z" into three numbers.
 fn parse_triple(text: &str) -> Result<[f64; 3], String> {
+    parse_numbers(text, "x,y,z")
+}
+
+/// Parses "lo,hi" into two numbers.
+fn parse_pair(text: &str) -> Result<[f64; 2], String> {
+    parse_numbers(text, "lo,hi")
+}
+
+/// Parses `N` comma-separated numbers; `form` names them for the message.
+fn parse_numbers<const N: usize>(text: &str, form: &str) -> Result<[f64; N], String> {
     let values: Vec<f64> = text
         .split(',')
         .map(|v| v.trim().parse::<f64>())
         .collect::<Result<_, _>>()
-        .map_err(|e| format!("'{text}' is not three numbers x,y,z: {e}"))?;
+        .map_err(|e| format!("'{text}' is not {N} numbers {form}: {e}"))?;
     values
         .try_into()
-        .map_err(|v: Vec<f64>| format!("'{text}' has {} numbers; give three: x,y,z", v.len()))
+        .map_err(|v: Vec<f64>| format!("'{text}' has {} numbers; give {N}: {form}", v.len()))
 }

@@ -1,4 +1,5 @@
-//! `balloonseg segment INPUT --seed X,Y,Z [--seed ...] [--index] [--ras] -o OUTPUT [--stats F]`
+//! `balloonseg segment INPUT --seed X,Y,Z [--seed ...] [--index] [--ras] -o OUTPUT [--stats F]
+//! [--png F]`
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -7,6 +8,7 @@ use std::time::Instant;
 
 use balloonseg::balloon::{BalloonParams, Phase, SegmentationStats, Segmenter, VertexState};
 use balloonseg::io::{self, PointData, PointValues};
+use balloonseg::render::{self, RenderOptions};
 use balloonseg::{mesh_checks, self_intersection::self_intersections, Error, Geometry, Result};
 use glam::DVec3;
 use serde_json::json;
@@ -29,6 +31,10 @@ pub struct Args {
     /// Write run statistics as JSON to this file.
     #[arg(long)]
     stats: Option<PathBuf>,
+    /// Write a picture of the result to this PNG file: three slices through the first seed with
+    /// the mesh's section, and a 3D view.
+    #[arg(long)]
+    png: Option<PathBuf>,
     /// Intensity of the structure (default: estimated around the first seed).
     #[arg(long, allow_negative_numbers = true)]
     reference: Option<f64>,
@@ -143,6 +149,17 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
         )
         .map_err(|e| Error::io(format!("cannot write {}: {e}", crate::shown(path))))?;
     }
+    if let Some(path) = &args.png {
+        let options = RenderOptions {
+            centre: Some(seeds[0]),
+            window: Some(display_window(segmenter.stats())),
+            ..RenderOptions::default()
+        };
+        render::write_png(
+            path,
+            &render::render_overview(&image.view(), Some(&mesh), &options)?,
+        )?;
+    }
     let moving = states.iter().filter(|&&s| s == VertexState::Moving).count();
     eprintln!(
         "{}: {} points, {} triangles ({moving} vertices still moving)",
@@ -151,6 +168,15 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
         mesh.triangles().len()
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// The display window of the picture, from the segmentation's model of a bright structure:
+/// its intensity window below the reference, and as much again below for the surroundings.
+fn display_window(stats: &SegmentationStats) -> (f64, f64) {
+    (
+        stats.reference_intensity - 2.0 * stats.tolerance,
+        stats.reference_intensity + stats.tolerance,
+    )
 }
 
 fn draw_progress(fraction: f64, phase: Phase) -> bool {

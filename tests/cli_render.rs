@@ -1,0 +1,77 @@
+//! The `render` command and `segment --png` as a user runs them: a phantom, its isosurface or
+//! its segmentation, and the picture; bad arguments end with a reason, not a panic.
+#![cfg(feature = "cli")]
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn balloonseg(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_balloonseg"))
+        .args(args)
+        .output()
+        .expect("the balloonseg binary runs")
+}
+
+fn succeed(args: &[&str]) {
+    let out = balloonseg(args);
+    assert!(
+        out.status.success(),
+        "balloonseg {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Width and height of a PNG file, from its header.
+fn png_size(path: &Path) -> (u32, u32) {
+    let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let info = png::Decoder::new(file).read_info().unwrap().info().clone();
+    (info.width, info.height)
+}
+
+#[test]
+fn render_and_segment_write_pictures_and_refuse_bad_arguments() {
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (volume, mesh, picture) = (at("torus.mha"), at("torus.vtp"), at("torus.png"));
+    succeed(&["phantom", "torus", "-o", &volume]);
+    succeed(&["isosurface", &volume, "--level", "600", "-o", &mesh]);
+    succeed(&[
+        "render", &mesh, "--volume", &volume, "-o", &picture, "--size", "100",
+    ]);
+    assert_eq!(png_size(Path::new(&picture)), (202, 202));
+    let centred = at("centred.png");
+    succeed(&[
+        "render", &mesh, "--volume", &volume, "-o", &centred, "--centre", "20,20,10", "--index",
+        "--window", "-50,1200",
+    ]);
+    assert_eq!(png_size(Path::new(&centred)), (842, 842));
+
+    let segmented = at("segmented.png");
+    succeed(&[
+        "segment",
+        &volume,
+        "--seed",
+        "0,12,0",
+        "-o",
+        &at("segmented.vtp"),
+        "--png",
+        &segmented,
+    ]);
+    assert_eq!(png_size(Path::new(&segmented)), (842, 842));
+
+    for (args, reason) in [
+        (vec!["--size", "0"], "pixels"),
+        (vec!["--size", "5000"], "pixels"),
+        (vec!["--window", "5,1"], "window"),
+        (vec!["--centre", "900,0,0"], "outside the volume"),
+        (vec!["--centre", "nan,0,0"], "centre"),
+    ] {
+        let mut all = vec!["render", &mesh, "--volume", &volume, "-o", &picture];
+        all.extend(args);
+        let out = balloonseg(&all);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{all:?}: {stderr}");
+        assert!(stderr.contains(reason), "{all:?}: {stderr}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+}
