@@ -14,8 +14,10 @@ use crate::Geometry;
 pub(crate) const SECTION: Rgb = [255, 232, 0];
 /// The cross at the centre: cyan, distinct from the yellow section and from grey tissue.
 const CROSS: Rgb = [0, 215, 255];
-/// Width of the section's lines in pixels: thick enough to see against any grey at a glance.
-const SECTION_WIDTH: f64 = 1.5;
+/// Width of the section's and the cross's lines in pixels: thick enough to see at a glance.
+const LINE_WIDTH: f64 = 2.0;
+/// Width of the dark outline under them, which keeps them visible on bright tissue.
+const OUTLINE_WIDTH: f64 = 3.5;
 /// Scale bar lengths to choose from: 10 mm unless that is too short to see.
 const BAR_MM: [f64; 6] = [10.0, 20.0, 50.0, 100.0, 200.0, 500.0];
 /// The shortest scale bar, in font pixels.
@@ -38,11 +40,14 @@ pub(crate) fn slice_panel(
         let (x, y) = (n as u32 % size, n as u32 / size);
         image.set(x, y, window.colour(sample));
     }
-    for [a, b] in segments {
-        image.line(plane.pixel(*a), plane.pixel(*b), SECTION_WIDTH, SECTION);
-    }
+    let section: Vec<[DVec2; 2]> = segments.iter().map(|s| s.map(|p| plane.pixel(p))).collect();
+    draw_outlined(&mut image, &section, SECTION);
     let scale = label_scale(size);
-    draw_cross(&mut image, plane.pixel(plane.centre), scale as f64);
+    draw_outlined(
+        &mut image,
+        &cross(plane.pixel(plane.centre), scale as f64),
+        CROSS,
+    );
     let pad = margin(scale);
     image.text(pad, pad, &title(plane, geometry), scale, INK);
     draw_orientation_letters(&mut image, plane, scale);
@@ -74,12 +79,20 @@ fn title(plane: &SlicePlane, geometry: &Geometry) -> String {
     )
 }
 
-/// A cross with a gap in its middle, so that the voxel under the centre stays visible.
-fn draw_cross(image: &mut RgbImage, at: DVec2, scale: f64) {
-    let (gap, arm) = (3.0 * scale, 9.0 * scale);
-    for direction in [DVec2::X, DVec2::Y, -DVec2::X, -DVec2::Y] {
-        image.line(at + gap * direction, at + arm * direction, 1.5, CROSS);
+/// Lines in `colour` over a dark outline; all outlines first, so that none covers a line.
+fn draw_outlined(image: &mut RgbImage, lines: &[[DVec2; 2]], colour: Rgb) {
+    for &[a, b] in lines {
+        image.line(a, b, OUTLINE_WIDTH, [0, 0, 0]);
     }
+    for &[a, b] in lines {
+        image.line(a, b, LINE_WIDTH, colour);
+    }
+}
+
+/// A cross with a gap in its middle, so that the voxel under the centre stays visible.
+fn cross(at: DVec2, scale: f64) -> [[DVec2; 2]; 4] {
+    let (gap, arm) = (3.0 * scale, 9.0 * scale);
+    [DVec2::X, DVec2::Y, -DVec2::X, -DVec2::Y].map(|d| [at + gap * d, at + arm * d])
 }
 
 /// The patient direction a world axis points to (LPS): Left, Posterior, Superior and their
