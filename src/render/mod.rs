@@ -2,8 +2,10 @@
 //! orthogonal slices of the volume through a centre with the mesh's cross-section drawn over
 //! them, and a shaded 3D view of the whole mesh, laid out 2 × 2:
 //!
-//! | axial (x–y, anterior up)    | coronal (x–z, superior up) |
-//! | sagittal (y–z, anterior left) | 3D, anterior oblique     |
+//! ```text
+//! axial (x–y, anterior up)        coronal (x–z, superior up)
+//! sagittal (y–z, anterior left)   3D (anterior oblique)
+//! ```
 //!
 //! Slices are resampled in world millimetres (`slices`), so anisotropic voxels and oblique
 //! grids keep their true proportions; the section is exact on the mesh's triangles
@@ -53,8 +55,9 @@ pub struct RenderOptions {
     /// 2 × `panel_px` + 2 pixels square.
     pub panel_px: u32,
     /// The side of each slice panel's square field of view in mm. Default: the mesh's largest
-    /// bounding-box extent (measured from the centre) × 1.4 + 20 mm, at most the volume's
-    /// largest extent; without a mesh, the volume's largest extent.
+    /// bounding-box extent × 1.4 + 20 mm (the extent taken as twice the box's largest reach
+    /// from the centre, when that is not the box's middle), at most the volume's largest
+    /// extent; without a mesh, the volume's largest extent.
     pub field_mm: Option<f64>,
 }
 
