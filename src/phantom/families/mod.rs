@@ -38,7 +38,7 @@ use crate::volume::{Image, ScalarType};
 /// The families of scenes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Family {
-    /// A CT-like abdomen around a contrast vessel: body, fat, lung, vertebra, a second vessel
+    /// A CT-like thorax around a contrast vessel: body, fat, lung, vertebra, a second vessel
     /// alongside, calcifications; int16 HU. Genus 0.
     CtScene,
     /// Two bright rounded boxes separated by a wall of background 0.6–1.5 voxels thick.
