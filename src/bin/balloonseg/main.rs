@@ -38,8 +38,9 @@ enum Command {
     Check(check::Args),
     /// Signed distance (mm, negative inside) from a closed mesh on the grid of a volume.
     Distance(distance::Args),
-    /// Write a synthetic test volume (sphere, torus, double-torus, y-vessel, touching-tubes,
-    /// fading-tube).
+    /// Write a synthetic test volume: a shape (sphere, torus, double-torus, y-vessel,
+    /// touching-tubes, fading-tube) or a variant of a family (ct-scene, thin-wall,
+    /// touching-pair, thin-vessels, stent).
     Phantom(phantom::Args),
     /// Run on the built-in phantoms, no input needed; writes meshes and a report.
     Demo(demo::Args),

@@ -1,76 +1,201 @@
-//! `balloonseg phantom NAME -o OUT.mha`: writes a synthetic test volume and prints its seed.
+//! `balloonseg phantom NAME -o OUT.mha`: writes a synthetic test volume and prints its seed —
+//! one of the fixed shapes, rendered as the look flags say, or variant N of a family, which
+//! draws its own look (so the look flags are an error with a family).
 
 use std::process::ExitCode;
 
-use balloonseg::phantom::{self, PhantomOptions, Shape};
-use balloonseg::{io, Result};
-use serde_json::json;
+use balloonseg::phantom::{self, Family, PhantomOptions, Shape};
+use balloonseg::{io, Error, Result};
+use serde_json::{json, Map, Value};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// sphere, torus, double-torus, y-vessel, touching-tubes or fading-tube.
+    /// A shape (sphere, torus, double-torus, y-vessel, touching-tubes, fading-tube) or a family
+    /// (ct-scene, thin-wall, touching-pair, thin-vessels, stent).
     name: String,
+    /// The family's variant number (default 0); every number gives another scene.
+    #[arg(long)]
+    variant: Option<u64>,
     #[command(flatten)]
     look: Look,
     #[command(flatten)]
     output: crate::Output,
 }
 
-/// How a phantom is rendered; shared with `demo`.
+/// How a shape is rendered (a family draws its own).
 #[derive(clap::Args, Clone)]
 pub struct Look {
-    /// Voxel spacing in mm, "x,y,z".
-    #[arg(long, value_parser = crate::parse_triple, default_value = "1,1,1")]
-    pub spacing: [f64; 3],
+    /// Voxel spacing in mm, "x,y,z" (default 1,1,1).
+    #[arg(long, value_parser = crate::parse_triple)]
+    pub spacing: Option<[f64; 3]>,
     /// Rotate the grid obliquely (25° about (1,2,3)); otherwise axis-aligned.
     #[arg(long)]
     pub oblique: bool,
-    /// Gaussian noise σ as a fraction of the contrast (0.1 = 10%).
-    #[arg(long, default_value_t = 0.0)]
-    pub noise: f64,
-    /// Gaussian blur σ in mm.
-    #[arg(long, default_value_t = 0.0)]
-    pub blur: f64,
-    /// Seed of the noise generator.
-    #[arg(long, default_value_t = 1)]
-    pub noise_seed: u64,
+    /// Gaussian noise σ as a fraction of the contrast (0.1 = 10%; default 0).
+    #[arg(long)]
+    pub noise: Option<f64>,
+    /// Gaussian blur σ in mm (default 0).
+    #[arg(long)]
+    pub blur: Option<f64>,
+    /// Seed of the noise generator (default 1).
+    #[arg(long)]
+    pub noise_seed: Option<u64>,
 }
 
 impl Look {
     pub fn options(&self) -> PhantomOptions {
         let defaults = PhantomOptions::default();
         PhantomOptions {
-            spacing: self.spacing,
+            spacing: self.spacing.unwrap_or(defaults.spacing),
             direction: if self.oblique {
                 phantom::oblique_direction()
             } else {
                 defaults.direction
             },
-            noise: self.noise,
-            blur_mm: self.blur,
-            noise_seed: self.noise_seed,
+            noise: self.noise.unwrap_or(defaults.noise),
+            blur_mm: self.blur.unwrap_or(defaults.blur_mm),
+            noise_seed: self.noise_seed.unwrap_or(defaults.noise_seed),
             ..defaults
         }
+    }
+
+    /// The look flags given, by name.
+    fn given(&self) -> Vec<&'static str> {
+        [
+            ("--spacing", self.spacing.is_some()),
+            ("--oblique", self.oblique),
+            ("--noise", self.noise.is_some()),
+            ("--blur", self.blur.is_some()),
+            ("--noise-seed", self.noise_seed.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(name, given)| given.then_some(name))
+        .collect()
     }
 }
 
 pub fn run(args: &Args) -> Result<ExitCode> {
-    let shape = Shape::from_name(&args.name)?;
+    let summary = match Family::from_name(&args.name) {
+        Ok(family) => write_variant(args, family)?,
+        Err(_) => write_shape(args)?,
+    };
+    println!(
+        "{}",
+        serde_json::to_string_pretty(&summary).expect("plain JSON values")
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+fn write_shape(args: &Args) -> Result<Value> {
+    let shape = Shape::from_name(&args.name).map_err(|_| {
+        let names: Vec<_> = Shape::ALL
+            .iter()
+            .map(|s| s.name())
+            .chain(Family::ALL.iter().map(|f| f.name()))
+            .collect();
+        Error::invalid_argument(format!(
+            "unknown phantom '{}'; choose one of {}",
+            args.name,
+            names.join(", ")
+        ))
+    })?;
+    if args.variant.is_some() {
+        return Err(Error::invalid_argument(format!(
+            "--variant goes with a family, and '{}' is a fixed shape",
+            args.name
+        )));
+    }
     let phantom = phantom::render(shape, &args.look.options())?;
     io::write_image(&args.output.path, &phantom.image)?;
     let seed = phantom.seed_world();
     let index = phantom.image.geometry().world_to_index(seed);
-    let summary = json!({
+    Ok(json!({
         "file": crate::shown(&args.output.path),
         "phantom": shape.name(),
         "dims": phantom.image.dims(),
         "seed_world": seed.to_array(),
         "seed_index": index.to_array(),
         "genus": shape.genus(),
-    });
-    println!(
-        "{}",
-        serde_json::to_string_pretty(&summary).expect("plain JSON values")
-    );
-    Ok(ExitCode::SUCCESS)
+    }))
+}
+
+fn write_variant(args: &Args, family: Family) -> Result<Value> {
+    let given = args.look.given();
+    if !given.is_empty() {
+        return Err(Error::invalid_argument(format!(
+            "{} set how a fixed shape looks; a family draws its own spacing, direction, blur \
+             and noise from the variant number: leave them out, or pick another --variant",
+            given.join(", ")
+        )));
+    }
+    let number = args.variant.unwrap_or(0);
+    let variant = family.variant(number)?;
+    io::write_image(&args.output.path, &variant.image)?;
+    let geometry = variant.image.geometry();
+    let seed = variant.seed();
+    let parameters: Map<String, Value> = variant
+        .describe()
+        .iter()
+        .map(|p| {
+            let value = match p.values.as_slice() {
+                [one] => json!(one),
+                many => json!(many),
+            };
+            (p.name.to_string(), value)
+        })
+        .collect();
+    Ok(json!({
+        "file": crate::shown(&args.output.path),
+        "phantom": family.name(),
+        "variant": number,
+        "dims": variant.image.dims(),
+        "spacing": geometry.spacing(),
+        "scalar_type": variant.image.scalar_type().name(),
+        "seed_world": seed.to_array(),
+        "seed_index": geometry.world_to_index(seed).to_array(),
+        "genus": variant.genus(),
+        "contrast": variant.contrast(),
+        "parameters": parameters,
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Command {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn run_with(words: &[&str]) -> Result<ExitCode> {
+        let dir = tempfile::tempdir().expect("a temporary folder");
+        let out = dir.path().join("out.nii.gz");
+        let mut line = vec!["phantom"];
+        line.extend_from_slice(words);
+        line.extend(["-o", out.to_str().expect("a UTF-8 path")]);
+        let result = run(&Command::parse_from(line).args);
+        if result.is_ok() {
+            io::read_image(&out)?;
+        }
+        result
+    }
+
+    #[test]
+    fn families_and_shapes_take_their_own_flags() {
+        run_with(&["thin-wall", "--variant", "7"]).unwrap();
+        run_with(&["torus", "--spacing", "2,2,2", "--oblique"]).unwrap();
+        let error = run_with(&["stent", "--spacing", "1,1,1", "--noise", "0.1"]).unwrap_err();
+        assert!(
+            error.message().contains("--spacing, --noise"),
+            "{}",
+            error.message()
+        );
+        let error = run_with(&["sphere", "--variant", "2"]).unwrap_err();
+        assert!(error.message().contains("--variant"), "{}", error.message());
+        let error = run_with(&["cube"]).unwrap_err();
+        assert!(error.message().contains("ct-scene"), "{}", error.message());
+    }
 }

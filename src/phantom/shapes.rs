@@ -1,17 +1,19 @@
-//! Synthetic test volumes with known answers: analytic shapes (sphere, torus, double torus,
-//! Y-shaped vessel, two touching tubes, a tube whose contrast fades) rendered with
-//! partial-volume voxels, optional Gaussian blur and Gaussian noise, on any spacing and
-//! direction.
+//! The fixed analytic shapes (sphere, torus, double torus, Y-shaped vessel, two touching
+//! tubes, a tube whose contrast fades), rendered with partial-volume voxels, optional Gaussian
+//! blur and Gaussian noise, on any spacing and direction.
 //!
 //! Each shape is an exact signed distance function in world millimetres (negative inside,
 //! after Quilez's primitives), so Dice, surface distance and genus of a segmentation can be
 //! measured against the truth rather than against another algorithm. Noise comes from our own
-//! seeded generator (SplitMix64 + Box–Muller) so that a phantom is bit-identical across
-//! versions, platforms and thread counts.
+//! seeded generator (`random`) so that a phantom is bit-identical across versions, platforms
+//! and thread counts.
 
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
+use super::grid::covering;
+use super::imaging::{add_noise, gaussian_blur};
+use super::sdf::segment_distance;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::volume::{Image, VoxelBuffer};
@@ -59,16 +61,7 @@ impl Shape {
     }
 
     pub fn from_name(name: &str) -> Result<Shape> {
-        Shape::ALL
-            .into_iter()
-            .find(|s| s.name() == name)
-            .ok_or_else(|| {
-                let names: Vec<_> = Shape::ALL.iter().map(|s| s.name()).collect();
-                Error::invalid_argument(format!(
-                    "unknown phantom '{name}'; choose one of {}",
-                    names.join(", ")
-                ))
-            })
+        super::named(&Shape::ALL, Shape::name, name, "phantom")
     }
 
     /// Genus of the shape's surface (of the seeded object for the touching tubes).
@@ -171,9 +164,7 @@ fn torus(p: DVec3) -> f64 {
 
 /// Distance to the segment a–b minus the radius: a cylinder with hemispherical caps.
 fn capsule(p: DVec3, a: DVec3, b: DVec3, radius: f64) -> f64 {
-    let ab = b - a;
-    let t = ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
-    (p - (a + t * ab)).length() - radius
+    segment_distance(p, a, b) - radius
 }
 
 /// A tube along z with rounded ends, centred at the origin.
@@ -341,80 +332,7 @@ fn grid_around(half: DVec3, axes: &Geometry) -> Result<(DVec3, [usize; 3])> {
         lo = lo.min(index);
         hi = hi.max(index);
     }
-    let lo = lo.floor();
-    let size = hi.ceil() - lo + 1.0;
-    if size.max_element() > 4096.0 {
-        return Err(Error::invalid_argument(format!(
-            "the phantom would need {size} voxels; use a spacing of at least 0.05 mm"
-        )));
-    }
-    let dims = [size.x as usize, size.y as usize, size.z as usize];
-    Ok((axes.index_to_world(lo), dims))
-}
-
-/// Separable Gaussian blur with σ in mm, per-axis in voxels; edges clamp.
-fn gaussian_blur(data: &mut [f32], dims: [usize; 3], geometry: &Geometry, sigma_mm: f64) {
-    let stride = [1, dims[0], dims[0] * dims[1]];
-    for axis in 0..3 {
-        let sigma = sigma_mm / geometry.spacing()[axis];
-        let radius = (3.0 * sigma).ceil() as isize;
-        let weights: Vec<f64> = (-radius..=radius)
-            .map(|x| (-0.5 * (x as f64 / sigma).powi(2)).exp())
-            .collect();
-        let total: f64 = weights.iter().sum();
-        let source = data.to_vec();
-        let n = dims[axis] as isize;
-        data.par_iter_mut().enumerate().for_each(|(idx, out)| {
-            let pos = (idx / stride[axis] % dims[axis]) as isize;
-            let base = idx as isize - pos * stride[axis] as isize;
-            let sum: f64 = weights
-                .iter()
-                .zip(-radius..=radius)
-                .map(|(w, d)| {
-                    let p = (pos + d).clamp(0, n - 1);
-                    w * source[(base + p * stride[axis] as isize) as usize] as f64
-                })
-                .sum();
-            *out = (sum / total) as f32;
-        });
-    }
-}
-
-/// SplitMix64 (Steele, Lea & Flood 2014): tiny, fast and stable forever.
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in (0, 1], never 0 so that the logarithm below is finite.
-    fn unit(&mut self) -> f64 {
-        ((self.next() >> 11) + 1) as f64 / (1u64 << 53) as f64
-    }
-
-    /// A standard normal sample (Box–Muller).
-    fn gaussian(&mut self) -> f64 {
-        let (u, v) = (self.unit(), self.unit());
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
-}
-
-/// Adds N(0, σ²) noise; each slab has its own stream so the result is thread-count independent.
-fn add_noise(data: &mut [f32], dims: [usize; 3], sigma: f64, seed: u64) {
-    let slab = dims[0] * dims[1];
-    data.par_chunks_mut(slab)
-        .enumerate()
-        .for_each(|(k, voxels)| {
-            let mut rng = SplitMix64(seed ^ (k as u64).wrapping_mul(0xD1B5_4A32_D192_ED03));
-            for v in voxels {
-                *v += (sigma * rng.gaussian()) as f32;
-            }
-        });
+    covering(lo, hi, axes)
 }
 
 #[cfg(test)]
