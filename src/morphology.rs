@@ -63,6 +63,91 @@ pub fn erode(mask: &[bool], dims: [usize; 3], spacing: [f64; 3], radius_mm: f64)
         .collect()
 }
 
+/// For each voxel of `mask`, its Euclidean distance (mm) to the nearest voxel outside it (0
+/// outside; a mask without outside voxels is as far as the grid is long). Exact, by
+/// Felzenszwalb and Huttenlocher's lower envelope of parabolas ("Distance transforms of sampled
+/// functions", 2012), one axis after the other with that axis's spacing.
+pub fn distance_to_outside(mask: &[bool], dims: [usize; 3], spacing: [f64; 3]) -> Vec<f64> {
+    let far = dims
+        .iter()
+        .zip(spacing)
+        .map(|(&n, s)| n as f64 * s)
+        .sum::<f64>()
+        .powi(2);
+    let mut squared: Vec<f64> = mask.iter().map(|&m| if m { far } else { 0.0 }).collect();
+    let stride = [1, dims[0], dims[0] * dims[1]];
+    for axis in 0..3 {
+        let n = dims[axis];
+        let mut line = vec![0.0; n];
+        let mut envelope = LowerEnvelope::with_capacity(n);
+        for start in 0..squared.len() {
+            // Each line along `axis` once: from its voxel whose coordinate on that axis is 0.
+            if start / stride[axis] % n != 0 {
+                continue;
+            }
+            for (t, v) in line.iter_mut().enumerate() {
+                *v = squared[start + t * stride[axis]];
+            }
+            envelope.transform(&mut line, spacing[axis]);
+            for (t, v) in line.iter().enumerate() {
+                squared[start + t * stride[axis]] = *v;
+            }
+        }
+    }
+    squared.into_iter().map(f64::sqrt).collect()
+}
+
+/// The lower envelope of the parabolas `(x − q)² s² + f(q)` of one line (F&H's 1D pass).
+struct LowerEnvelope {
+    vertices: Vec<usize>,
+    bounds: Vec<f64>,
+}
+
+impl LowerEnvelope {
+    fn with_capacity(n: usize) -> Self {
+        LowerEnvelope {
+            vertices: Vec::with_capacity(n),
+            bounds: Vec::with_capacity(n + 1),
+        }
+    }
+
+    /// Replaces `f` by `min_q (x − q)² s² + f(q)` for samples `spacing` apart.
+    fn transform(&mut self, f: &mut [f64], spacing: f64) {
+        let s2 = spacing * spacing;
+        let (v, z) = (&mut self.vertices, &mut self.bounds);
+        v.clear();
+        z.clear();
+        let meet = |q: usize, p: usize, f: &[f64]| {
+            ((f[q] + s2 * (q * q) as f64) - (f[p] + s2 * (p * p) as f64))
+                / (2.0 * s2 * (q as f64 - p as f64))
+        };
+        v.push(0);
+        z.push(f64::NEG_INFINITY);
+        z.push(f64::INFINITY);
+        for q in 1..f.len() {
+            let mut s = meet(q, v[v.len() - 1], f);
+            while s <= z[v.len() - 1] {
+                v.pop();
+                z.pop();
+                s = meet(q, v[v.len() - 1], f);
+            }
+            z.pop();
+            v.push(q);
+            z.push(s);
+            z.push(f64::INFINITY);
+        }
+        let original = f.to_vec();
+        let mut k = 0;
+        for (x, out) in f.iter_mut().enumerate() {
+            while z[k + 1] < x as f64 {
+                k += 1;
+            }
+            let d = x as f64 - v[k] as f64;
+            *out = s2 * d * d + original[v[k]];
+        }
+    }
+}
+
 /// The 6-connected components of `mask`: a label per voxel (`u32::MAX` outside the mask),
 /// numbered in the order of their first voxel, and how many there are.
 pub fn components(mask: &[bool], dims: [usize; 3]) -> (Vec<u32>, u32) {
@@ -164,6 +249,44 @@ impl Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn distance_to_outside_is_exact_on_an_anisotropic_grid() {
+        // A box of 9 × 7 × 5 voxels inside a 13 × 11 × 9 grid, spacing 0.5 × 1 × 2 mm.
+        let dims = [13, 11, 9];
+        let spacing = [0.5, 1.0, 2.0];
+        let inside = |i: usize, j: usize, k: usize| {
+            (2..11).contains(&i) && (2..9).contains(&j) && (2..7).contains(&k)
+        };
+        let mask: Vec<bool> = (0..13 * 11 * 9)
+            .map(|n| inside(n % 13, n / 13 % 11, n / 143))
+            .collect();
+        let d = distance_to_outside(&mask, dims, spacing);
+        for (n, &m) in mask.iter().enumerate() {
+            let (i, j, k) = (n % 13, n / 13 % 11, n / 143);
+            // Brute force over every outside voxel.
+            let exact = if m {
+                (0..mask.len())
+                    .filter(|&o| !mask[o])
+                    .map(|o| {
+                        let e = [
+                            (o % 13) as f64 - i as f64,
+                            (o / 13 % 11) as f64 - j as f64,
+                            (o / 143) as f64 - k as f64,
+                        ];
+                        ((e[0] * 0.5).powi(2) + e[1].powi(2) + (e[2] * 2.0).powi(2)).sqrt()
+                    })
+                    .fold(f64::INFINITY, f64::min)
+            } else {
+                0.0
+            };
+            assert!(
+                (d[n] - exact).abs() < 1e-9,
+                "({i},{j},{k}): {} vs {exact}",
+                d[n]
+            );
+        }
+    }
 
     fn grid(dims: [usize; 3], inside: impl Fn([f64; 3]) -> bool, spacing: [f64; 3]) -> Vec<bool> {
         let mut mask = Vec::new();

@@ -31,6 +31,7 @@ const KERNEL_REACH: f64 = 3.0;
 /// A lazily smoothed view of a volume.
 pub struct SmoothedVolume<'v> {
     volume: Volume<'v>,
+    sigma_mm: f64,
     dims: [usize; 3],
     bricks_per_axis: [usize; 3],
     /// One sampled Gaussian per axis, `kernel[a][r + t]` for offsets `t` in `-r..=r`.
@@ -48,6 +49,7 @@ impl<'v> SmoothedVolume<'v> {
         let count = bricks_per_axis.iter().product();
         SmoothedVolume {
             volume,
+            sigma_mm,
             dims,
             bricks_per_axis,
             kernels,
@@ -57,6 +59,16 @@ impl<'v> SmoothedVolume<'v> {
 
     pub fn geometry(&self) -> &Geometry {
         self.volume.geometry()
+    }
+
+    /// The volume before smoothing.
+    pub fn volume(&self) -> &Volume<'v> {
+        &self.volume
+    }
+
+    /// The Gaussian's σ (mm).
+    pub fn sigma_mm(&self) -> f64 {
+        self.sigma_mm
     }
 
     pub fn dims(&self) -> [usize; 3] {

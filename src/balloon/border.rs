@@ -2,12 +2,18 @@
 //! "inversely proportional to the difference between the local gray level and the reference
 //! value" and zero once that difference exceeds a threshold).
 //!
-//! The balloon reads the image at two scales (`ImageScales`), both Gaussian-smoothed
-//! (`SmoothedVolume`): a fine one, half a voxel, at the scale of its triangles, and a coarse
-//! one, two voxels, for where the fine one shows no edge.
-//! - **The window**: where the fine image is inside `reference ± tolerance` the balloon
-//!   inflates with speed `1 − ½(d/tol)²`, `d` the intensity's distance from the reference:
-//!   slower towards the border but never stalling before it.
+//! The balloon reads the image at three scales (`ImageScales`), all Gaussian-smoothed
+//! (`SmoothedVolume`): a fine one, half a voxel, at the scale of its triangles; a mid one, a
+//! voxel, where local steps are measured; and a coarse one, two voxels, for where the fine one
+//! shows no edge.
+//! - **The window**: where the fine image is inside `[lower, upper]` the balloon inflates with
+//!   speed `1 − ½d²`, `d` the intensity's distance from the reference in half-widths of its
+//!   side: slower towards the border but never stalling before it. Either end may be open.
+//! - **Local steps**: the window is one interval for the whole structure, set by the tissue
+//!   around the seed; elsewhere the structure may run against tissue inside it (muscle where
+//!   fat was, a wall a voxel thick). A vertex also stops where the image steps from the
+//!   structure it comes from to the tissue just ahead by a share of the structure's contrast
+//!   (`Border::step_ahead`): the window's border drawn locally, half-way between the two.
 //! - **Edges**: the intensity also leaves the window inside real structures, without an edge:
 //!   contrast mixing in a lumen, a bolus fading along a vessel, noise. The vmtk aorta's lumen
 //!   fades from 1600 to 450 over its last 12 cm, and where it crosses the border its bright part
@@ -15,31 +21,35 @@
 //!   such dips and come out with handles. So leaving the window stops the balloon only across an
 //!   edge. Where the fine image leaves it, the coarse image decides: if its gradient there is
 //!   under a quarter of the structure's edge strength (the median steepest slope on the seed's
-//!   rays at the same scale, `seed_statistics`) and its intensity is within a window half as wide again, there is no edge and the
-//!   balloon goes on at the border's speed — the low threshold of a hysteresis, as in Canny's
-//!   edge linking. Without an edge no place is better than its neighbours for the balloon to
-//!   stop, and on the fine image the noise would choose, voxel by voxel (a noisy fading tube
-//!   came out with up to 8 handles); two voxels of smoothing leave a tenth of the noise, and
-//!   the balloon stops in one smooth cap.
+//!   rays at the same scale, `seed_statistics`) and its intensity is within a window half as
+//!   wide again, there is no edge and the balloon goes on at the border's speed — the low
+//!   threshold of a hysteresis, as in Canny's edge linking. Without an edge no place is better
+//!   than its neighbours for the balloon to stop, and on the fine image the noise would choose,
+//!   voxel by voxel (a noisy fading tube came out with up to 8 handles); two voxels of
+//!   smoothing leave a tenth of the noise, and the balloon stops in one smooth cap.
 //! - **Beyond the border** the speed is negative (the paper's containing force); NaN (unknown
-//!   intensity) is beyond the border.
+//!   intensity) is beyond the border, and so are the voxels of structures cut off as leaks.
+
+use std::collections::HashSet;
 
 use glam::DVec3;
 
+use super::fast_hash::FastHash;
 use crate::smoothed_volume::SmoothedVolume;
 use crate::volume::Volume;
 
-/// σ of the two smoothings, in smallest spacings.
+/// σ of the three smoothings, in smallest spacings.
 const FINE_VOXELS: f64 = 0.5;
+const MID_VOXELS: f64 = 1.0;
 const COARSE_VOXELS: f64 = 2.0;
 
-/// The scale (Gaussian σ, mm) of the coarse image, where the border rule reads gradients: the
-/// structure's edge strength is measured at the same scale (`seed_statistics`).
-pub(crate) fn edge_scale_mm(volume: &Volume<'_>) -> f64 {
-    COARSE_VOXELS * volume.geometry().min_spacing()
-}
 /// The gradient that makes leaving the window an edge, as a fraction of the edge strength.
 const EDGE_FRACTION: f64 = 0.25;
+/// How far behind a vertex and ahead of its target a local step's two levels are measured, in
+/// samples every half voxel: two and a half voxels, the width of a blurred edge's ramp.
+const STEP_SAMPLES: usize = 5;
+/// A local step happens within this many voxels at its steepest slope.
+const STEEP_VOXELS: f64 = 3.0;
 /// The hysteresis window's half-width, in tolerances.
 const WIDE_WINDOW: f64 = 1.5;
 /// Inflation speed at the window's border, kept beyond it where there is no edge.
@@ -47,18 +57,53 @@ const BORDER_SPEED: f64 = 0.5;
 /// Inflation speed beyond the border: the containing force.
 const CONTAINING_SPEED: f64 = -0.5;
 
-/// The structure's intensities: `reference ± tolerance`.
+/// The structure's intensities: `[lower, upper]` around its `reference` level. An end may be
+/// infinite: a structure with no brighter (darker) neighbours has no upper (lower) end.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct IntensityWindow {
     pub reference: f64,
-    pub tolerance: f64,
+    pub lower: f64,
+    pub upper: f64,
 }
 
 impl IntensityWindow {
+    pub fn new(reference: f64, lower: f64, upper: f64) -> Self {
+        IntensityWindow {
+            reference,
+            lower,
+            upper,
+        }
+    }
+
+    /// `reference ± tolerance`, as a user gives it.
+    pub fn symmetric(reference: f64, tolerance: f64) -> Self {
+        Self::new(reference, reference - tolerance, reference + tolerance)
+    }
+
+    /// The half-width towards the darker side (towards the brighter one if that is open): the
+    /// one number that stands for the window where a single tolerance is reported.
+    pub fn tolerance(&self) -> f64 {
+        let below = self.reference - self.lower;
+        if below.is_finite() {
+            below
+        } else {
+            self.upper - self.reference
+        }
+    }
+
+    /// The intensity's distance from the reference in half-widths of its side.
+    fn offset(&self, intensity: f64) -> f64 {
+        if intensity < self.reference {
+            (self.reference - intensity) / (self.reference - self.lower)
+        } else {
+            (intensity - self.reference) / (self.upper - self.reference)
+        }
+    }
+
     /// Inflation speed for an intensity: positive inside the window, negative outside, NaN
     /// (unknown intensity) counts as outside.
     pub fn inflation(&self, intensity: f64) -> f64 {
-        let d = (intensity - self.reference).abs() / self.tolerance;
+        let d = self.offset(intensity);
         if d <= 1.0 {
             1.0 - 0.5 * d * d
         } else {
@@ -67,18 +112,35 @@ impl IntensityWindow {
     }
 
     pub fn contains(&self, intensity: f64) -> bool {
-        (intensity - self.reference).abs() <= self.tolerance
+        self.offset(intensity) <= 1.0
     }
 
     fn wide_contains(&self, intensity: f64) -> bool {
-        (intensity - self.reference).abs() <= WIDE_WINDOW * self.tolerance
+        self.offset(intensity) <= WIDE_WINDOW
     }
 }
 
-/// The image at the two scales the balloon reads it at.
+impl std::fmt::Display for IntensityWindow {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "[{:.4}, {:.4}] around {:.4}",
+            self.lower, self.upper, self.reference
+        )
+    }
+}
+
+/// The image at the three scales the balloon reads it at, and the voxels it may no longer
+/// enter.
 pub(crate) struct ImageScales<'v> {
     pub fine: SmoothedVolume<'v>,
+    /// Where local steps are measured (`Border::step_ahead`): a voxel of smoothing leaves a
+    /// quarter of the noise of the fine scale and most of a wall a voxel thick.
+    pub mid: SmoothedVolume<'v>,
     pub coarse: SmoothedVolume<'v>,
+    /// Voxels of structures cut off as leaks (`touching`): the balloon found its way into them
+    /// once through a neck, and would again.
+    excluded: HashSet<[i64; 3], FastHash>,
 }
 
 impl<'v> ImageScales<'v> {
@@ -86,8 +148,27 @@ impl<'v> ImageScales<'v> {
         let voxel = volume.geometry().min_spacing();
         ImageScales {
             fine: SmoothedVolume::new(volume, FINE_VOXELS * voxel),
-            coarse: SmoothedVolume::new(volume, edge_scale_mm(&volume)),
+            mid: SmoothedVolume::new(volume, MID_VOXELS * voxel),
+            // The border rule reads gradients here, and the structure's edge strength is
+            // measured at the same scale (`seed_statistics`).
+            coarse: SmoothedVolume::new(volume, COARSE_VOXELS * voxel),
+            excluded: HashSet::default(),
         }
+    }
+
+    /// Keeps the balloon out of these voxels (indices of the volume's grid) from now on.
+    pub fn exclude(&mut self, voxels: impl IntoIterator<Item = [i64; 3]>) {
+        self.excluded.extend(voxels);
+    }
+
+    /// Whether the voxel nearest to `x` (world mm) was excluded.
+    fn is_excluded(&self, x: DVec3) -> bool {
+        if self.excluded.is_empty() {
+            return false;
+        }
+        let i = self.fine.geometry().world_to_index(x).round();
+        self.excluded
+            .contains(&[i.x as i64, i.y as i64, i.z as i64])
     }
 }
 
@@ -102,18 +183,52 @@ pub(crate) struct Place {
     pub speed: f64,
 }
 
-/// The border rule: the intensity window and the structure's edge strength.
+/// The border rule: the intensity window, the structure's edge strength and the smallest
+/// local step that is an edge.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Border {
     pub window: IntensityWindow,
     /// Intensity per mm; 0 takes the window literally (every exit from it is an edge).
     pub edge_strength: f64,
+    /// A step of the image at the scale of local steps at least this high is an edge even
+    /// inside the window (`Border::step_ahead`; 0: none is).
+    pub step: f64,
+    /// A voxel (mm): local steps are measured within [`STEP_SAMPLES`] half voxels.
+    pub voxel: f64,
+}
+
+/// Where a vertex meets a local step ([`Border::step_ahead`]): it stops where the fine image
+/// crosses `level`, from above when `falling`. The levels come from the scale of local steps,
+/// where noise is low; the crossing from the fine scale, whose smoothing barely shifts a
+/// curved edge (a Gaussian of σ moves the half level of a ball of radius R inwards by σ²/R).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Step {
+    pub level: f64,
+    pub falling: bool,
+}
+
+impl Step {
+    /// Whether `intensity` is on the far side of the step.
+    pub fn crossed(&self, intensity: f64) -> bool {
+        if self.falling {
+            intensity <= self.level
+        } else {
+            intensity >= self.level
+        }
+    }
 }
 
 impl Border {
     /// The place at `x` (world mm); `None` outside the volume.
     pub fn place(&self, image: &ImageScales<'_>, x: DVec3) -> Option<Place> {
         let intensity = image.fine.sample_world(x)?;
+        if image.is_excluded(x) {
+            return Some(Place {
+                passable: false,
+                in_window: false,
+                speed: CONTAINING_SPEED,
+            });
+        }
         if self.window.contains(intensity) {
             return Some(Place {
                 passable: true,
@@ -144,6 +259,71 @@ impl Border {
         })
     }
 
+    /// The local step a vertex meets on its way from `x` to `target` (world mm), if any: the
+    /// image at the scale of local steps (`ImageScales::mid`) within [`STEP_SAMPLES`] half voxels
+    /// behind `x` (the structure the vertex comes from) differs from the image within as far
+    /// ahead of `target` by at least [`Border::step`], and the fine image at `target` is past
+    /// the half-way between the two. This is the window's border drawn locally, between the structure and
+    /// the tissue right ahead: a wall of darker tissue a voxel thick, or muscle inside a window
+    /// that fat and lung set elsewhere, stops the balloon although the window holds them, and
+    /// so does bone or a stent strut above an open upper end; a bolus fading along a vessel is
+    /// no step, however far it fades. The way a vertex comes tells which side the structure is
+    /// on; looking as far behind as ahead keeps the level the same all along the step's ramp,
+    /// and lets a vertex that remeshing put just past a step see it. It is looked for only
+    /// where `target` is half a step from the reference, which inside the structure noise and
+    /// texture seldom reach.
+    pub fn step_ahead(&self, image: &ImageScales<'_>, x: DVec3, target: DVec3) -> Option<Step> {
+        if self.step <= 0.0 {
+            return None;
+        }
+        let mid = &image.mid;
+        let there = mid.sample_world(target)?;
+        let falling = there < self.window.reference;
+        if (there - self.window.reference).abs() < 0.5 * self.step {
+            return None;
+        }
+        let direction = (target - x).normalize_or_zero();
+        let further = |a: f64, b: f64| if falling { a.min(b) } else { a.max(b) };
+        let nearer = |a: f64, b: f64| if falling { a.max(b) } else { a.min(b) };
+        // Half a voxel apart, from the farthest behind `x` to the farthest ahead of `target`.
+        let at = |from: DVec3, k: f64| mid.sample_world(from + (k * self.voxel / 2.0) * direction);
+        let behind: Vec<f64> = (1..=STEP_SAMPLES)
+            .rev()
+            .filter_map(|k| at(x, -(k as f64)))
+            .chain([mid.sample_world(x)?])
+            .collect();
+        let ahead: Vec<f64> = [there]
+            .into_iter()
+            .chain((1..=STEP_SAMPLES).filter_map(|k| at(target, k as f64)))
+            .collect();
+        let inside = behind.iter().copied().fold(behind[0], nearer);
+        let ahead_level = ahead.iter().copied().fold(there, further);
+        // A step is steep: most of it within a few voxels. A bolus fading along a vessel
+        // changes as much over the look's five voxels, but never that fast.
+        let steepest = behind
+            .iter()
+            .chain(&ahead)
+            .collect::<Vec<_>>()
+            .windows(3)
+            .map(|w| (w[2] - w[0]).abs())
+            .fold(0.0, f64::max);
+        let steep = STEEP_VOXELS * steepest >= (inside - ahead_level).abs();
+        let ahead = ahead_level;
+        let step = Step {
+            level: 0.5 * (inside + ahead),
+            falling,
+        };
+        // A step at the window's end only repeats it: the window stops the vertex there, on
+        // the fine image, without the coarser scale's shift of a curved edge.
+        let margin = if falling { 0.25 } else { -0.25 } * self.step;
+        let tightens = self.window.contains(step.level - margin);
+        let crossed = image
+            .fine
+            .sample_world(target)
+            .is_some_and(|v| step.crossed(v));
+        ((inside - ahead).abs() >= self.step && steep && tightens && crossed).then_some(step)
+    }
+
     /// Whether the balloon may go to `x`: [`Border::place`]'s verdict, `false` outside.
     pub fn passable(&self, image: &ImageScales<'_>, x: DVec3) -> bool {
         self.place(image, x).is_some_and(|p| p.passable)
@@ -158,10 +338,7 @@ mod tests {
 
     #[test]
     fn inflation_slows_towards_the_border_and_reverses_beyond() {
-        let w = IntensityWindow {
-            reference: 1000.0,
-            tolerance: 400.0,
-        };
+        let w = IntensityWindow::symmetric(1000.0, 400.0);
         assert_eq!(w.inflation(1000.0), 1.0);
         assert!((w.inflation(600.0) - 0.5).abs() < 1e-12);
         assert!(w.inflation(599.0) < 0.0);
@@ -181,11 +358,10 @@ mod tests {
     #[test]
     fn leaving_the_window_stops_the_balloon_only_across_an_edge() {
         let border = Border {
-            window: IntensityWindow {
-                reference: 1000.0,
-                tolerance: 100.0,
-            },
+            window: IntensityWindow::symmetric(1000.0, 100.0),
             edge_strength: 200.0,
+            step: 0.0,
+            voxel: 1.0,
         };
         let at = |x: f64| DVec3::new(x, 20.0, 20.0);
         // A steep edge (100 per mm): beyond the border at x = 1, nothing is passable.

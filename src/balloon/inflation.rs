@@ -109,6 +109,18 @@ impl Stepper<'_, '_> {
                 .is_some_and(|place| place.passable == here.passable)
         };
         let target = x + dx;
+        if here.passable {
+            if let Some(step) = self.border.step_ahead(self.image, x, target) {
+                let (mut lo, mut hi) = (0.0, 1.0);
+                bisect(&mut lo, &mut hi, |t| {
+                    self.image
+                        .fine
+                        .sample_world(x + t * dx)
+                        .is_some_and(|v| !step.crossed(v))
+                });
+                return (x + lo * dx, VertexState::FrozenAtBorder);
+            }
+        }
         if same_side(target) {
             return (target, VertexState::Moving);
         }
@@ -166,11 +178,10 @@ mod tests {
         Stepper {
             image,
             border: Border {
-                window: IntensityWindow {
-                    reference,
-                    tolerance,
-                },
+                window: IntensityWindow::symmetric(reference, tolerance),
                 edge_strength: 0.0,
+                step: 0.0,
+                voxel: 1.0,
             },
             weights,
             edge_length: 1.0,

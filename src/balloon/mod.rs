@@ -9,6 +9,7 @@ mod fairing;
 mod fast_hash;
 pub mod forces;
 mod front;
+mod hounsfield;
 mod inflation;
 pub mod params;
 mod remesh;

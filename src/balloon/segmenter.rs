@@ -19,7 +19,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::border::{edge_scale_mm, Border, ImageScales, IntensityWindow};
+use super::border::{Border, ImageScales, IntensityWindow};
 use super::contact_search::{local_mesh, FrozenTriangles};
 use super::fairing;
 use super::front::Front;
@@ -36,10 +36,16 @@ use crate::mesh_checks;
 use crate::self_intersection::{self_intersections, self_intersections_among};
 use crate::volume::Volume;
 
+/// The smallest local step that is an edge, as a share of the structure's contrast and in σ
+/// of the image inside the structure at the scale of local steps (its texture).
+const LOCAL_STEP_SHARE: f64 = 0.25;
+const LOCAL_STEP_TEXTURE: f64 = 5.0;
 /// Edges longer than this many target lengths are split, shorter than `COLLAPSE_BELOW`
 /// collapsed: a split leaves halves (0.75 L) above the collapse length, so work is not undone.
 const SPLIT_ABOVE: f64 = 1.5;
 const COLLAPSE_BELOW: f64 = 0.6;
+/// Vertices of the balloon when `inflate` first looks for structures entered through a neck.
+const FIRST_LEAK_CHECK: usize = 4096;
 /// Steps between two remeshings: at three quarters of a voxel per step (the default step
 /// fraction) an edge of the growing balloon stretches by well under half its length in between.
 const REMESH_INTERVAL: u32 = 2;
@@ -60,6 +66,18 @@ const UNFAIR_RINGS: usize = 2;
 /// Cell size, in target edge lengths, of the grid that finds the triangles near the moving
 /// front for the self-intersection search: about the size of a triangle's box.
 const SEARCH_CELLS: f64 = 2.0;
+
+/// The smallest local step that is an edge (`Border::step`): a share of the structure's
+/// contrast to its surroundings (twice the tolerance for a window given without an estimate),
+/// and well above the variation of the image inside the structure (noise and texture).
+fn local_step(window: &IntensityWindow, estimate: Option<&SeedStatistics>) -> f64 {
+    let contrast = estimate
+        .map(|s| s.contrast())
+        .filter(|c| c.is_finite())
+        .unwrap_or(2.0 * window.tolerance());
+    let texture = estimate.map_or(0.0, |s| s.texture);
+    (LOCAL_STEP_SHARE * contrast).max(LOCAL_STEP_TEXTURE * texture)
+}
 
 /// Splits the edges longer than `split`, collapses those shorter than `collapse` and flips for
 /// valence (`remesh`), on the moving front.
@@ -136,7 +154,10 @@ impl PhaseSeconds {
 #[derive(Debug, Clone, PartialEq)]
 pub struct SegmentationStats {
     pub reference_intensity: f64,
+    /// The window's half-width towards the darker side ([`IntensityWindow::tolerance`]).
     pub tolerance: f64,
+    /// The intensities the balloon inflates in.
+    pub window: IntensityWindow,
     /// The estimate behind the defaults, when reference or tolerance were not given.
     pub seed_statistics: Option<SeedStatistics>,
     /// The structure's edge strength (intensity per mm) that the border rule compares
@@ -163,6 +184,11 @@ pub struct Segmenter<'v, 'p> {
     /// The seed points (world mm): the structures touching theirs are cut off at the end.
     seeds: Vec<DVec3>,
     scratch: Scratch,
+    /// The vertex count at which `inflate` next looks for structures entered through a neck
+    /// (`touching`): each time the balloon has doubled, so that a leak is cut off before it
+    /// spreads from the neighbour into everything beyond, at a cost that adds up to a few
+    /// times the last look's.
+    next_leak_check: usize,
     stats: SegmentationStats,
     pool: rayon::ThreadPool,
     progress: Option<ProgressCallback<'p>>,
@@ -178,50 +204,49 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .build()
             .map_err(|e| Error::invalid_argument(format!("cannot start the threads: {e}")))?;
         let geometry = *volume.geometry();
-        let edge_scale = edge_scale_mm(&volume);
-        let estimate = match (params.reference, params.tolerance) {
-            (Some(_), Some(_)) => None,
-            _ => Some(pool.install(|| seed_statistics::estimate(&volume, seed, edge_scale))?),
+        let image = ImageScales::new(volume);
+        let estimate = match params.tolerance {
+            Some(_) if params.reference.is_some() => None,
+            _ => Some(pool.install(|| seed_statistics::estimate(&image, seed, params.reference))?),
         };
-        let window = IntensityWindow {
-            reference: params
-                .reference
-                .or(estimate.map(|s| s.reference))
-                .expect("estimated when not given"),
-            tolerance: params
-                .tolerance
-                .or(estimate.map(|s| s.tolerance))
-                .expect("estimated when not given"),
+        let window = match (params.tolerance, estimate) {
+            (None, Some(s)) => s.window,
+            (Some(tolerance), _) => IntensityWindow::symmetric(
+                params
+                    .reference
+                    .or(estimate.map(|s| s.reference))
+                    .expect("estimated when not given"),
+                tolerance,
+            ),
+            (None, None) => unreachable!("estimated when no tolerance is given"),
         };
-        if window.tolerance.is_nan() || window.tolerance <= 0.0 {
-            return Err(Error::invalid_argument(format!(
-                "the estimated tolerance is {}: the structure and its surroundings look alike \
-                 around the seed; give the tolerance explicitly",
-                window.tolerance
-            )));
-        }
         let edge_strength = match estimate {
-            Some(s) if params.reference.is_none() && params.tolerance.is_none() => s.edge_strength,
+            Some(s) if params.tolerance.is_none() => s.edge_strength,
             _ => pool
-                .install(|| seed_statistics::edge_strength(&volume, seed, &window, edge_scale))
+                .install(|| seed_statistics::edge_strength(&image, seed, &window))
                 .unwrap_or(0.0),
         };
         let edge_length = params.edge_length.unwrap_or(geometry.mean_spacing());
+        let step = local_step(&window, estimate.as_ref());
         let mut segmenter = Segmenter {
             volume,
-            image: ImageScales::new(volume),
+            image,
             border: Border {
                 window,
                 edge_strength,
+                step,
+                voxel: geometry.mean_spacing(),
             },
             edge_length,
             surface: Surface::icosphere(seed, geometry.mean_spacing(), 1)?,
             frozen: FrozenTriangles::default(),
             seeds: vec![seed],
             scratch: Scratch::default(),
+            next_leak_check: FIRST_LEAK_CHECK,
             stats: SegmentationStats {
                 reference_intensity: window.reference,
-                tolerance: window.tolerance,
+                tolerance: window.tolerance(),
+                window,
                 seed_statistics: estimate,
                 edge_strength,
                 edge_length,
@@ -263,9 +288,8 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             ))),
             Some(v) if !window.contains(v) => Err(Error::invalid_argument(format!(
                 "the intensity at the seed {seed} mm is {v} (smoothed over half a voxel), \
-                 outside the window {} ± {}: the seed is on the background or the window is too \
-                 narrow; move the seed into the structure or widen the tolerance",
-                window.reference, window.tolerance
+                 outside the window {window}: the seed is on the background or the window is \
+                 too narrow; move the seed into the structure or widen the tolerance"
             ))),
             Some(_) => Ok(()),
         }
@@ -392,12 +416,10 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         if self.surface.vertex_count() > self.params.max_vertices {
             return Err(Error::leak(format!(
                 "the balloon grew past {} vertices: it has most likely leaked out of the \
-                 structure through a gap in its wall; lower the tolerance (now {:.4} around \
-                 {:.4}), raise the bending weight, or raise max_vertices if the structure is \
-                 really that large",
-                self.params.max_vertices,
-                self.border.window.tolerance,
-                self.border.window.reference
+                 structure through a gap in its wall; narrow the window (now {}: give a \
+                 smaller tolerance), raise the bending weight, or raise max_vertices if the \
+                 structure is really that large",
+                self.params.max_vertices, self.border.window
             )));
         }
         if self.surface.vertex_slots() > 2 * self.surface.vertex_count() {
@@ -544,18 +566,33 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         Ok(())
     }
 
-    /// Freezes the vertices of a new surface where the balloon may not go (`border`); the
-    /// others move on to the border. Where two lumens meet across a saddle below the border
-    /// (the aorta's renal arteries), the merged surface bridges the saddle: pulled in, the
-    /// bridge deflated from both sides until they passed through each other, and the same
-    /// contact came back after every re-parametrisation.
+    /// Freezes the vertices of a new surface where the balloon may not go (`border`), or where
+    /// a vertex coming from a voxel inside would have stopped at a local step
+    /// (`Border::step_ahead`): the balloon stopped there at muscle or a thin wall inside the
+    /// window, and released, the new surface would walk into it. The others move on to the
+    /// border. Where two lumens meet across a saddle below the border (the aorta's renal
+    /// arteries), the merged surface bridges the saddle: pulled in, the bridge deflated from
+    /// both sides until they passed through each other, and the same contact came back after
+    /// every re-parametrisation.
     fn freeze_outside_window(&self, surface: &mut Surface) {
+        let normals = surface.vertex_normals();
         let (positions, states) = surface.positions_and_states_mut();
-        for (p, state) in positions.iter().zip(states) {
-            if !self.border.passable(&self.image, *p) {
+        for ((&p, n), state) in positions.iter().zip(normals).zip(states) {
+            if !self.may_move_on(p, n) {
                 *state = VertexState::FrozenAtBorder;
             }
         }
+    }
+
+    /// Whether a vertex of a new surface at `p` with outward normal `n` may move on: where the
+    /// balloon may go, and not past a local step that a vertex coming from a voxel inside
+    /// would have stopped at.
+    fn may_move_on(&self, p: DVec3, n: DVec3) -> bool {
+        self.border.passable(&self.image, p)
+            && self
+                .border
+                .step_ahead(&self.image, p - self.border.voxel * n, p)
+                .is_none()
     }
 
     fn has_self_intersections(&self) -> bool {
@@ -586,7 +623,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             budget = budget.saturating_sub(used);
             self.freeze_self_intersections()?;
         }
-        self.cut_touching()?;
+        self.cut_touching(AfterReparametrization::Nothing)?;
         let unfaired = self.fair();
         self.validated(unfaired)
     }
@@ -631,7 +668,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     /// Cuts off the structures the balloon entered through an elongated contact with the
     /// seeds' structure (`touching`), with cores eroded by `TOUCHING_EDGE_LENGTHS` target edge
     /// lengths: the paper ties the triangle size to the scale of the smallest structure.
-    fn cut_touching(&mut self) -> Result<()> {
+    fn cut_touching(&mut self, next: AfterReparametrization) -> Result<()> {
         let start = Instant::now();
         self.report(0.9, Phase::Reparametrization)?;
         let (mesh, _) = self.mesh();
@@ -642,8 +679,14 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .pool
             .install(|| cut_touching(&mesh, &geometry, seeds, radius))?
         {
-            let mut surface = Surface::from_mesh(&cut)?;
-            surface.states_mut().fill(VertexState::FrozenAtBorder);
+            self.image.exclude(cut.removed);
+            let mut surface = Surface::from_mesh(&cut.mesh)?;
+            match next {
+                AfterReparametrization::Nothing => {
+                    surface.states_mut().fill(VertexState::FrozenAtBorder)
+                }
+                AfterReparametrization::Refinement => self.freeze_outside_window(&mut surface),
+            }
             self.replace_surface(surface);
         }
         self.stats
@@ -664,6 +707,10 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             let report = self.one_step(phase)?;
             if self.at_equilibrium(&report) {
                 return Ok(step);
+            }
+            if self.surface.vertex_count() >= self.next_leak_check {
+                self.next_leak_check = 2 * self.surface.vertex_count();
+                self.cut_touching(AfterReparametrization::Refinement)?;
             }
             if step % STALL_STEPS == 0 {
                 let now = self.surface.signed_volume();
@@ -782,9 +829,10 @@ mod tests {
         s.replace_by_isosurface(AfterReparametrization::Refinement)
             .unwrap();
         let (mut inside, mut outside) = (0, 0);
+        let normals = s.surface.vertex_normals();
         for v in s.surface.live_vertices() {
             let p = s.surface.positions()[v as usize];
-            let in_window = s.border.passable(&s.image, p);
+            let in_window = s.may_move_on(p, normals[v as usize]);
             let state = s.surface.states()[v as usize];
             if in_window {
                 inside += 1;

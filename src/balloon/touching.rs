@@ -4,13 +4,19 @@
 //! contact and fills the second structure too; no local force can tell that contact from the
 //! opening of a branch.
 //!
-//! After the balloon stops, its inside is split into the basins of its thick parts: the
-//! components of the inside eroded by a ball (the cores), each grown back over the inside along
-//! shortest paths — a geodesic Voronoi partition, i.e. the watershed of the distance map with
-//! the cores as markers, the classic way to split touching objects. Two basins that meet along
-//! an elongated contact are two structures side by side; two that meet across a round one are
-//! one structure narrowing (a stenosis, the root of a branch, a thin vessel between thick ones).
-//! The basins joined to a seed's basin through round contacts are kept, the rest is cut off.
+//! The balloon's inside is split into the basins of its thick parts by the watershed of its
+//! distance map (the distance of each inside voxel to the outside), the classic way to split
+//! touching objects: flooded from its deepest voxels down, a basin grows from each maximum,
+//! and where two meet at a saddle they stay apart if the saddle is markedly shallower than the
+//! thinner of the two (a waist below [`SPLIT`] of its depth); otherwise they are one part
+//! whose surface merely wobbles. Lobes thinner than a few target edge lengths are not parts of
+//! their own (the paper ties the triangle size to the smallest structure). Two basins that
+//! meet along an elongated contact are two structures side by side; a basin entered through a
+//! contact much narrower than itself is a structure reached through a neck (a kidney through
+//! its artery, the liver through a portal branch); two that meet across a round contact about
+//! as wide as the thinner of them are one structure narrowing or branching (a stenosis, the
+//! root of a branch). The basins joined to a seed's basin through such contacts are kept, the
+//! rest is cut off.
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
@@ -31,27 +37,61 @@ use crate::winding_number::inside_mask;
 /// variances of its face centres). A round cross-section has about 1; the 36 mm contact of two
 /// touching tubes 3.6 mm wide about 10.
 const ELONGATED: f64 = 3.0;
-/// Contacts of fewer voxel faces than this are too small to have a shape: kept.
+/// Contacts of fewer voxel faces than this are too small to have a shape (only their area
+/// counts).
 const MIN_CONTACT_FACES: usize = 12;
+/// Two basins meeting at a saddle shallower than this share of the thinner one's thickness
+/// stay apart: a waist. Two touching tubes meet at a waist however much the balloon fills
+/// the crevice between them; one tube's surface wobbles by far less.
+const SPLIT: f64 = 0.85;
+/// A basin more than this many times as thick as the radius of its contact with the kept
+/// ones was entered through a neck (see `joined_through_round_contacts`).
+const NECK_RATIO: f64 = 3.0;
+
+/// What [`cut_touching`] cut off.
+pub(crate) struct Cut {
+    /// The balloon without it.
+    pub mesh: TriMesh,
+    /// The voxels (indices of the volume's grid, possibly beyond its faces) it took.
+    pub removed: Vec<[i64; 3]>,
+}
 
 /// The closed balloon `mesh` without the structures it entered through an elongated contact
-/// with the seeds' structure (see the module's comment), on the grid of `geometry`, with cores
-/// eroded by a ball of `radius` mm. `None` when nothing is cut.
+/// or a neck from the seeds' structure (see the module's comment), on the grid of
+/// `geometry`, with basins at least `radius` mm thick to be parts of their own. `None` when
+/// nothing is cut.
 pub(crate) fn cut_touching(
     mesh: &TriMesh,
     geometry: &Geometry,
     seeds: &[DVec3],
     radius: f64,
-) -> Result<Option<TriMesh>> {
-    let spacing = geometry.spacing();
-    let (grid, dims) = covering_grid(mesh, geometry, 2.0)?;
+) -> Result<Option<Cut>> {
+    // An isotropic grid of the smallest spacing: on a grid of 1.5 mm slices the depths would
+    // be off by up to 0.75 mm, as much as the waist between two touching tubes.
+    let voxel = geometry.min_spacing();
+    let isotropic = Geometry::new([voxel; 3], geometry.origin(), geometry.direction())?;
+    let (grid, dims) = covering_grid(mesh, &isotropic, 2.0)?;
+    let spacing = grid.spacing();
     let inside = inside_mask(mesh, dims, &grid)?;
-    let (cores, count) =
-        morphology::components(&morphology::erode(&inside, dims, spacing, radius), dims);
-    if count < 2 {
+    let depth = morphology::distance_to_outside(&inside, dims, spacing);
+    let (lobes, thickness) = watershed(&depth, dims, radius, voxel);
+    if thickness.len() < 2 {
         return Ok(None);
     }
-    let basins = basins(&inside, &cores, dims, spacing);
+    // Each basin's core, the part deeper than its waists could be, grown back over the inside
+    // along shortest paths: the flood's order does not decide where two basins meet.
+    let cores: Vec<u32> = lobes
+        .iter()
+        .zip(&depth)
+        .map(|(&l, &d)| {
+            if l != u32::MAX && d >= SPLIT * thickness[l as usize] {
+                l
+            } else {
+                u32::MAX
+            }
+        })
+        .collect();
+    let basins = nearest_cores(&inside, &cores, dims, spacing);
     let seed_basins: Vec<u32> = seeds
         .iter()
         .filter_map(|&s| voxel_of(grid.world_to_index(s), dims))
@@ -62,7 +102,7 @@ pub(crate) fn cut_touching(
         // The seeds lie in parts too thin for a core of their own: nothing to compare with.
         return Ok(None);
     }
-    let kept = joined_through_round_contacts(&basins, count, &seed_basins, dims, &grid);
+    let kept = joined_through_round_contacts(&basins, &thickness, &seed_basins, dims, &grid);
     let cut: Vec<usize> = (0..basins.len())
         .filter(|&n| basins[n] != u32::MAX && !kept[basins[n] as usize])
         .collect();
@@ -74,15 +114,27 @@ pub(crate) fn cut_touching(
     let options = SignedDistanceOptions { band_voxels: 1.0 };
     let mut field = signed_distance_values(mesh, mesh, dims, &grid, &options)?;
     let outside = options.band_mm(&grid);
+    let voxels = Grid(dims);
+    let mut removed: Vec<[i64; 3]> = cut
+        .iter()
+        .map(|&n| {
+            let (i, j, k) = voxels.coordinates(n);
+            let p = DVec3::new(i as f64, j as f64, k as f64);
+            let v = geometry.world_to_index(grid.index_to_world(p)).round();
+            [v.x as i64, v.y as i64, v.z as i64]
+        })
+        .collect();
+    removed.sort_unstable();
+    removed.dedup();
     for n in cut {
         field[n] = outside;
     }
     keep_seeded_components(&mut field, dims, &grid, seeds);
-    let voxel: f64 = spacing.iter().product();
-    Ok(Some(without_cavities(
-        isosurface(field, dims, &grid, 0.0)?,
-        voxel,
-    )))
+    let voxel_volume: f64 = spacing.iter().product();
+    Ok(Some(Cut {
+        mesh: without_cavities(isosurface(field, dims, &grid, 0.0)?, voxel_volume),
+        removed,
+    }))
 }
 
 /// The voxel nearest the continuous index `p`, if it is on the grid.
@@ -95,7 +147,7 @@ fn voxel_of(p: DVec3, dims: [usize; 3]) -> Option<usize> {
 /// For each voxel of `inside`, the label of the core nearest to it along paths inside (steps
 /// between 6-neighbours, as long as the spacing along their axis); `u32::MAX` outside and where
 /// no core is reached. Ties go to the smaller label, so the partition is deterministic.
-fn basins(inside: &[bool], cores: &[u32], dims: [usize; 3], spacing: [f64; 3]) -> Vec<u32> {
+fn nearest_cores(inside: &[bool], cores: &[u32], dims: [usize; 3], spacing: [f64; 3]) -> Vec<u32> {
     let grid = Grid(dims);
     let mut label = cores.to_vec();
     let mut distance = vec![f64::INFINITY; inside.len()];
@@ -130,10 +182,111 @@ fn basins(inside: &[bool], cores: &[u32], dims: [usize; 3], spacing: [f64; 3]) -
     label
 }
 
-/// Which basins are joined to one of `seeds` through contacts that are not elongated.
+/// The watershed of the distance map `depth` (mm, 0 outside): a basin label per voxel
+/// (`u32::MAX` outside) and each basin's thickness (its deepest voxel's depth). Voxels are
+/// flooded from the deepest down, in a fixed order; a voxel next to one basin joins it, one
+/// next to several merges those whose saddle here is not a waist — shallower than [`SPLIT`]
+/// of the thinner one's thickness and by at least a `voxel` (a smaller dip is the grid's) —
+/// or where either is thinner than `min_thickness`, and joins the deepest.
+fn watershed(
+    depth: &[f64],
+    dims: [usize; 3],
+    min_thickness: f64,
+    voxel: f64,
+) -> (Vec<u32>, Vec<f64>) {
+    let grid = Grid(dims);
+    let mut order: Vec<usize> = (0..depth.len()).filter(|&n| depth[n] > 0.0).collect();
+    order.sort_unstable_by(|&a, &b| depth[b].total_cmp(&depth[a]).then(a.cmp(&b)));
+    let mut label = vec![u32::MAX; depth.len()];
+    let mut sets = Basins::default();
+    for n in order {
+        let saddle = depth[n];
+        let mut around: Vec<u32> = grid
+            .neighbours(n)
+            .filter(|&m| label[m] != u32::MAX)
+            .map(|m| sets.find(label[m]))
+            .collect();
+        around.sort_unstable();
+        around.dedup();
+        let Some(&first) = around.first() else {
+            label[n] = sets.add(saddle);
+            continue;
+        };
+        let mut joined = first;
+        for &other in &around[1..] {
+            let a = sets.find(joined);
+            let b = sets.find(other);
+            let thinner = sets.thickness[a as usize].min(sets.thickness[b as usize]);
+            let waist = saddle < SPLIT * thinner && thinner - saddle >= voxel;
+            if thinner < min_thickness || !waist {
+                joined = sets.union(a, b);
+            } else if sets.thickness[b as usize] > sets.thickness[a as usize] {
+                joined = b;
+            }
+        }
+        label[n] = sets.find(joined);
+    }
+    // Number the basins that remain densely, in the order of their roots.
+    let mut dense = vec![u32::MAX; sets.parent.len()];
+    let mut thickness = Vec::new();
+    for l in label.iter_mut().filter(|l| **l != u32::MAX) {
+        let root = sets.find(*l) as usize;
+        if dense[root] == u32::MAX {
+            dense[root] = thickness.len() as u32;
+            thickness.push(sets.thickness[root]);
+        }
+        *l = dense[root];
+    }
+    (label, thickness)
+}
+
+/// Union–find over the basins of the flood, each with its thickness.
+#[derive(Default)]
+struct Basins {
+    parent: Vec<u32>,
+    thickness: Vec<f64>,
+}
+
+impl Basins {
+    fn add(&mut self, thickness: f64) -> u32 {
+        self.parent.push(self.parent.len() as u32);
+        self.thickness.push(thickness);
+        self.parent.len() as u32 - 1
+    }
+
+    fn find(&mut self, mut a: u32) -> u32 {
+        while self.parent[a as usize] != a {
+            let up = self.parent[self.parent[a as usize] as usize];
+            self.parent[a as usize] = up;
+            a = up;
+        }
+        a
+    }
+
+    /// Merges two roots into the deeper one; returns it.
+    fn union(&mut self, a: u32, b: u32) -> u32 {
+        if a == b {
+            return a;
+        }
+        let (keep, gone) = if self.thickness[a as usize] >= self.thickness[b as usize] {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        self.parent[gone as usize] = keep;
+        keep
+    }
+}
+
+/// Which basins are joined to one of `seeds` through contacts that are neither elongated nor
+/// necks: a basin entered through a contact whose radius (of a disc of its area) is less than
+/// `1 / NECK_RATIO` of the basin's own thickness (its deepest point's distance to the outside,
+/// `thickness`) is a structure the balloon leaked into through a narrow passage — a kidney
+/// through its artery, the liver through a portal branch, a neighbour through a pinhole —
+/// while a branch is about as thick as its root.
 fn joined_through_round_contacts(
     basins: &[u32],
-    count: u32,
+    thickness: &[f64],
     seeds: &[u32],
     dims: [usize; 3],
     grid: &Geometry,
@@ -141,6 +294,12 @@ fn joined_through_round_contacts(
     // The centres of the voxel faces between each pair of basins, as moments.
     let mut contacts: HashMap<(u32, u32), Moments, FastHash> = HashMap::default();
     let voxels = Grid(dims);
+    let spacing = grid.spacing();
+    let face_area = [
+        spacing[1] * spacing[2],
+        spacing[0] * spacing[2],
+        spacing[0] * spacing[1],
+    ];
     for (n, &a) in basins.iter().enumerate() {
         if a == u32::MAX {
             continue;
@@ -152,44 +311,59 @@ fn joined_through_round_contacts(
                     let (i, j, k) = voxels.coordinates(v);
                     DVec3::new(i as f64, j as f64, k as f64)
                 };
+                let axis = match m - n {
+                    1 => 0,
+                    d if d == dims[0] => 1,
+                    _ => 2,
+                };
                 let centre = 0.5 * (index(n) + index(m));
                 contacts
                     .entry((a.min(b), a.max(b)))
                     .or_default()
-                    .add(grid.index_to_world(centre));
+                    .add(grid.index_to_world(centre), face_area[axis]);
             }
         }
     }
-    let mut joined = vec![Vec::new(); count as usize];
+    let count = thickness.len();
+    let mut joined = vec![Vec::new(); count];
     let mut pairs: Vec<_> = contacts.into_iter().collect();
     pairs.sort_unstable_by_key(|(pair, _)| *pair);
     for ((a, b), moments) in pairs {
         if moments.count < MIN_CONTACT_FACES || moments.elongation() <= ELONGATED {
-            joined[a as usize].push(b);
-            joined[b as usize].push(a);
+            let radius = (moments.area / std::f64::consts::PI).sqrt();
+            joined[a as usize].push((b, radius));
+            joined[b as usize].push((a, radius));
         }
     }
-    let mut kept = vec![false; count as usize];
+    let mut kept = vec![false; count];
     let mut stack: Vec<u32> = seeds.to_vec();
     while let Some(b) = stack.pop() {
         if !std::mem::replace(&mut kept[b as usize], true) {
-            stack.extend(&joined[b as usize]);
+            stack.extend(
+                joined[b as usize]
+                    .iter()
+                    .filter(|&&(c, radius)| thickness[c as usize] <= NECK_RATIO * radius)
+                    .map(|&(c, _)| c),
+            );
         }
     }
     kept
 }
 
-/// Count, sum and sum of outer products of points: their covariance.
+/// Count, sum and sum of outer products of points (their covariance), and the area they stand
+/// for.
 #[derive(Default)]
 struct Moments {
     count: usize,
+    area: f64,
     sum: DVec3,
     outer: DMat3,
 }
 
 impl Moments {
-    fn add(&mut self, p: DVec3) {
+    fn add(&mut self, p: DVec3, area: f64) {
         self.count += 1;
+        self.area += area;
         self.sum += p;
         self.outer += DMat3::from_cols(p * p.x, p * p.y, p * p.z);
     }
@@ -247,13 +421,13 @@ mod tests {
         let mut disk = Moments::default();
         for i in 0..40 {
             for j in 0..4 {
-                strip.add(DVec3::new(i as f64, j as f64, 0.1 * j as f64));
+                strip.add(DVec3::new(i as f64, j as f64, 0.1 * j as f64), 1.0);
             }
         }
         for i in -6i32..=6 {
             for j in -6i32..=6 {
                 if i * i + j * j <= 36 {
-                    disk.add(DVec3::new(i as f64, 0.0, j as f64));
+                    disk.add(DVec3::new(i as f64, 0.0, j as f64), 1.0);
                 }
             }
         }
@@ -301,7 +475,8 @@ mod tests {
         let seed = DVec3::new(-4.0, 0.0, 0.0);
         let cut = cut_touching(&tubes, &g, &[seed], 2.6)
             .unwrap()
-            .expect("a cut");
+            .expect("a cut")
+            .mesh;
         let report = crate::mesh_checks::check(&cut);
         assert!(report.is_valid_closed_surface(), "{report:?}");
         assert_eq!(report.components, 1);

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
+use balloonseg::balloon::seed_statistics::{Neighbours, RAYS};
 use balloonseg::balloon::{BalloonParams, Phase, SegmentationStats, Segmenter, VertexState};
 use balloonseg::io::{self, PointData, PointValues};
 use balloonseg::render::{self, RenderOptions};
@@ -127,6 +128,7 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
     for &seed in &seeds[1..] {
         segmenter.add_seed(seed)?;
     }
+    eprintln!("{}", window_line(segmenter.stats()));
     if std::io::stderr().is_terminal() {
         segmenter.set_progress(Some(Box::new(draw_progress)));
     }
@@ -218,6 +220,21 @@ fn stats_json(
         "area_mm2": report.area,
         "reference_intensity": stats.reference_intensity,
         "tolerance": stats.tolerance,
+        "window": {
+            "lower": finite(stats.window.lower),
+            "upper": finite(stats.window.upper),
+            "reference": stats.window.reference,
+        },
+        "intensity_model": stats.seed_statistics.map(|m| json!({
+            "noise_sigma": m.noise,
+            "texture_sigma": m.texture,
+            "ct_soft_tissue": m.soft_tissue,
+            "rays": RAYS,
+            "rays_with_edge": m.rays_exited(),
+            "edge_strength": m.edge_strength,
+            "darker": neighbours_json(&m.darker),
+            "brighter": neighbours_json(&m.brighter),
+        })),
         "edge_length_mm": stats.edge_length,
         "seconds": {
             "inflation": s.inflation,
@@ -228,4 +245,58 @@ fn stats_json(
             "total": total,
         },
     })
+}
+
+/// JSON has no infinity: an open end of the window is `null`.
+fn finite(value: f64) -> Option<f64> {
+    value.is_finite().then_some(value)
+}
+
+fn neighbours_json(n: &Neighbours) -> serde_json::Value {
+    json!({
+        "rays": n.rays,
+        "level": finite(n.level),
+        "border": finite(n.border),
+        "edge_strength": finite(n.edge_strength),
+    })
+}
+
+/// One line on the window the balloon inflates in, and where it came from.
+fn window_line(stats: &SegmentationStats) -> String {
+    let w = stats.window;
+    let end = |v: f64| {
+        if v.is_finite() {
+            format!("{v:.1}")
+        } else {
+            "open".to_string()
+        }
+    };
+    let mut line = format!(
+        "window {} .. {} around {:.1}",
+        end(w.lower),
+        end(w.upper),
+        w.reference
+    );
+    match &stats.seed_statistics {
+        Some(m) => {
+            let side = |name: &str, n: &Neighbours| {
+                if n.rays == 0 {
+                    format!("no {name} tissue")
+                } else {
+                    format!("{name} tissue at {:.1} on {} rays", n.level, n.rays)
+                }
+            };
+            line += &format!(
+                " (estimated from {} of {RAYS} rays: {}, {}; noise σ {:.1}{})",
+                m.rays_exited(),
+                side("darker", &m.darker),
+                side("brighter", &m.brighter),
+                m.noise,
+                m.soft_tissue
+                    .map_or(String::new(), |s| format!("; CT, soft tissue at {s:.0} HU"))
+            );
+        }
+        None => line += " (as given)",
+    }
+    line
 }
