@@ -1,11 +1,17 @@
 //! The balloon on the real scans (`BALLOONSEG_DATA`), scored as `tests/real_scans.rs` scores it:
-//! for the aorta, Dice, mean symmetric surface distance and HD95 against vmtk's reference inside
-//! its rows y = 89…176; for both, validity, components, genus, steps and seconds.
+//! for the aorta, Dice, mean symmetric surface distance (between the surfaces and between voxel
+//! masks) and HD95 against vmtk's reference inside its rows y = 89…176; for the carotid,
+//! validity, components, genus, steps and seconds; for every seed of the newer scans
+//! (`tests/support/real_scan_cases.rs`), Dice against its label, genus, volume, the window and
+//! what it misses of the data README's expectation.
 //!
-//! `score_real_scans [aorta|carotid|both] [--reference R] [--tolerance T] [--threads N]
-//! [--step-fraction F] [--max-reparametrizations N] [--save DIR]` prints one JSON line per scan (and with `--save`, writes `DIR/aorta.vtp`,
-//! `DIR/carotid.vtp`); for trying parameters and estimators against the numbers BENCHMARKS.md
-//! quotes.
+//! `score_real_scans [aorta|carotid|cases|CASE...] [--reference R] [--tolerance T]
+//! [--threads N] [--step-fraction F] [--max-reparametrizations N] [--save DIR]` (all of them
+//! without a name) prints one JSON line per scan (and with `--save`, writes `DIR/NAME.vtp`); for
+//! trying parameters and estimators against the numbers BENCHMARKS.md quotes.
+
+#[path = "../tests/support/real_scan_cases.rs"]
+mod real_scan_cases;
 
 use std::time::Instant;
 
@@ -24,7 +30,7 @@ fn main() {
 
 fn run() -> Result<()> {
     let mut args = std::env::args().skip(1);
-    let mut which = "both".to_string();
+    let mut which: Vec<String> = Vec::new();
     let mut params = BalloonParams::default();
     let mut save = None;
     while let Some(arg) = args.next() {
@@ -42,18 +48,19 @@ fn run() -> Result<()> {
                 params.max_reparametrizations = value("--max-reparametrizations")? as u32
             }
             "--save" => save = args.next().map(std::path::PathBuf::from),
-            "aorta" | "carotid" | "both" => which = arg,
+            name if !name.starts_with('-') => which.push(arg),
             other => {
                 return Err(Error::invalid_argument(format!(
-                    "unknown argument {other}; usage: score_real_scans [aorta|carotid|both] \
+                "unknown argument {other}; usage: score_real_scans [aorta|carotid|cases|CASE...] \
                      [--reference R] [--tolerance T] [--threads N] [--step-fraction F] \
                      [--max-reparametrizations N] [--save DIR]"
-                )))
+            )))
             }
         }
     }
     let dir = data_dir().ok_or_else(|| Error::invalid_argument("no BALLOONSEG_DATA"))?;
-    if which != "carotid" {
+    let wanted = |name: &str| which.is_empty() || which.iter().any(|w| w == name);
+    if wanted("aorta") {
         let image = io::read_image(&dir.join("vmtk-aorta/aorta.mha"))?;
         let seed = DVec3::new(-221.484, -156.445, 22.501);
         let start = Instant::now();
@@ -68,13 +75,17 @@ fn run() -> Result<()> {
             lo: [0, 89, 0],
             hi: [level_set.dims()[0] - 1, 176, level_set.dims()[2] - 1],
         };
-        let LevelSetScore { overlap, distances } =
-            score_against_level_set(&mesh, &level_set.view(), region)?;
+        let LevelSetScore {
+            overlap,
+            distances,
+            voxel_distances,
+        } = score_against_level_set(&mesh, &level_set.view(), region)?;
         let report = mesh_checks::check(&mesh);
         let stats = segmenter.stats();
         println!(
             "{{\"scan\": \"aorta\", \"valid\": {}, \"components\": {}, \"genus\": {:?}, \
-             \"dice\": {:.4}, \"mssd_mm\": {:.3}, \"hd95_mm\": {:.3}, \"volume_mm3\": {:.0}, \
+             \"dice\": {:.4}, \"mssd_mm\": {:.3}, \"voxel_mssd_mm\": {:.3}, \"hd95_mm\": {:.3}, \
+             \"volume_mm3\": {:.0}, \
              \"reference_volume_mm3\": {:.0}, \"reference\": {:.1}, \"tolerance\": {:.1}, \
              \"steps\": {}, \"reparametrizations\": {}, \"seconds\": {:.3}, \"phases\": \"{:.3?}\"}}",
             report.is_valid_closed_surface(),
@@ -82,6 +93,7 @@ fn run() -> Result<()> {
             report.genus(),
             overlap.dice(),
             distances.mean(),
+            voxel_distances.mean(),
             distances.hd95(),
             overlap.mesh,
             overlap.truth,
@@ -93,10 +105,11 @@ fn run() -> Result<()> {
             stats.seconds
         );
     }
-    if which != "aorta" {
+    if wanted("carotid") {
         let image = io::read_image(&dir.join("vtk-carotid/carotid.mha"))?;
         let start = Instant::now();
-        let mut segmenter = Segmenter::new(image.view(), params, DVec3::new(117.0, 103.0, 9.0))?;
+        let mut segmenter =
+            Segmenter::new(image.view(), params.clone(), DVec3::new(117.0, 103.0, 9.0))?;
         let (mesh, _) = segmenter.segment()?;
         let seconds = start.elapsed().as_secs_f64();
         if let Some(dir) = &save {
@@ -118,6 +131,31 @@ fn run() -> Result<()> {
             stats.reparametrizations,
             seconds
         );
+    }
+    for case in real_scan_cases::CASES {
+        if !(wanted("cases") || wanted(case.name)) {
+            continue;
+        }
+        let line = match real_scan_cases::run(case, &dir, params.clone()) {
+            Ok(outcome) => {
+                if let Some(dir) = &save {
+                    io::write_mesh(&dir.join(format!("{}.vtp", case.name)), &outcome.mesh, &[])?;
+                }
+                serde_json::json!({
+                    "case": case.name,
+                    "valid": outcome.valid,
+                    "components": outcome.components,
+                    "genus": outcome.genus,
+                    "dice": outcome.dice.map(|d| (d * 1e4).round() / 1e4),
+                    "volume_cm3": (outcome.volume_cm3 * 100.0).round() / 100.0,
+                    "window": outcome.window,
+                    "seconds": (outcome.seconds * 100.0).round() / 100.0,
+                    "misses": outcome.misses(case),
+                })
+            }
+            Err(e) => serde_json::json!({"case": case.name, "error": e.to_string()}),
+        };
+        println!("{line}");
     }
     Ok(())
 }

@@ -23,10 +23,10 @@
 //!   three voxels inside and two to three voxels outside the steepest point (FWHM).
 //! - **The window** comes from the rays that meet an edge within 1.5 times the rays' median
 //!   distance to theirs: along a vessel, a ray meets the vessel's own slow drift long before it
-//!   leaves it. Its lower end is the 80th percentile of the borders of those rays that step
-//!   down — the nearest darker tissue that a fifth of them meet, so that muscle next to a
-//!   vessel bounds it and not the fat or lung beyond — and its upper end the 20th percentile
-//!   of the borders of the rays that step up, if at least [`MIN_SIDE_RAYS`] do (bone, calcium,
+//!   leaves it. Its lower end is the median of the borders of those rays that step down —
+//!   each ray's first edge is the tissue right outside the structure, so muscle next to a
+//!   vessel bounds it and not the fat or lung beyond — and its upper end the median of the
+//!   borders of the rays that step up, if at least [`MIN_SIDE_RAYS`] do (bone, calcium,
 //!   stent struts, denser contrast); otherwise that side is open. Either end stays at least
 //!   2.5σ from the reference, so that the window holds the seed's own neighbourhood.
 //! - **In a CT** the Hounsfield scale adds what the rays may not see: the lower end of a
@@ -113,7 +113,7 @@ const BAND_FLOOR: f64 = 0.02;
 /// surroundings.
 const BRIGHTER_SHARE: f64 = 0.5;
 /// The percentile of the darker borders taken as the lower end (and its complement for the
-/// brighter ones): the nearest tissue met by a fifth of the rays of that side.
+/// brighter ones): the median, robust to the few rays whose first edge is a farther tissue.
 const NEAREST_PERCENTILE: f64 = 0.5;
 /// Only the edges within this many times the rays' median distance to their edge shape the
 /// window: along a vessel, a ray meets the vessel's own slow drift long before it leaves it.

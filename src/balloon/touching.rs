@@ -11,7 +11,8 @@
 //! thinner of the two (a waist below [`SPLIT`] of its depth); otherwise they are one part
 //! whose surface merely wobbles. Lobes thinner than a few target edge lengths are not parts of
 //! their own (the paper ties the triangle size to the smallest structure). Two basins that
-//! meet along an elongated contact are two structures side by side; a basin entered through a
+//! meet along an elongated contact, or that both meet their contact on their walls (two tubes
+//! crossing: each runs on past it both ways), are two structures side by side; a basin entered through a
 //! contact much narrower than itself is a structure reached through a neck (a kidney through
 //! its artery, the liver through a portal branch); two that meet across a round contact about
 //! as wide as the thinner of them are one structure narrowing or branching (a stenosis, the
@@ -47,6 +48,13 @@ const SPLIT: f64 = 0.85;
 /// A basin more than this many times as thick as the radius of its contact with the kept
 /// ones was entered through a neck (see `joined_through_round_contacts`).
 const NECK_RATIO: f64 = 3.0;
+/// How far around a contact (in each basin's thicknesses) its two basins' shapes are looked at
+/// to tell two tubes side by side (each touched on its wall) from a branch or a narrowing.
+const SIDE_REACH: f64 = 3.0;
+/// A basin meets a contact on its side when it spreads along it at least this many times as
+/// far as across it (standard deviations): a tube touched on its wall, seen within three of its
+/// radii of the contact, about 3; a branch leaving the contact, under 1.
+const SIDE_ELONGATION: f64 = 2.0;
 
 /// What [`cut_touching`] cut off.
 pub(crate) struct Cut {
@@ -317,10 +325,15 @@ fn joined_through_round_contacts(
                     _ => 2,
                 };
                 let centre = 0.5 * (index(n) + index(m));
-                contacts
-                    .entry((a.min(b), a.max(b)))
-                    .or_default()
-                    .add(grid.index_to_world(centre), face_area[axis]);
+                let mut step = DVec3::ZERO;
+                step[axis] = if a < b { 0.5 } else { -0.5 };
+                let from_first =
+                    grid.index_to_world(centre + step) - grid.index_to_world(centre - step);
+                contacts.entry((a.min(b), a.max(b))).or_default().add(
+                    grid.index_to_world(centre),
+                    face_area[axis],
+                    from_first.normalize() * face_area[axis],
+                );
             }
         }
     }
@@ -329,7 +342,13 @@ fn joined_through_round_contacts(
     let mut pairs: Vec<_> = contacts.into_iter().collect();
     pairs.sort_unstable_by_key(|(pair, _)| *pair);
     for ((a, b), moments) in pairs {
-        if moments.count < MIN_CONTACT_FACES || moments.elongation() <= ELONGATED {
+        let small = moments.count < MIN_CONTACT_FACES;
+        let side_by_side = !small
+            && [a, b].iter().all(|&c| {
+                let reach = SIDE_REACH * thickness[c as usize];
+                meets_on_its_side(basins, c, &moments, reach, dims, grid)
+            });
+        if small || (moments.elongation() <= ELONGATED && !side_by_side) {
             let radius = (moments.area / std::f64::consts::PI).sqrt();
             joined[a as usize].push((b, radius));
             joined[b as usize].push((a, radius));
@@ -350,32 +369,87 @@ fn joined_through_round_contacts(
     kept
 }
 
-/// Count, sum and sum of outer products of points (their covariance), and the area they stand
-/// for.
+/// Whether `basin` meets the contact `contact` on its side: around the contact (within `reach`
+/// mm of its centre) the basin spreads along the contact more than [`SIDE_ELONGATION`] times
+/// as far as across it. A tube touched on its wall runs on past the contact both ways; a
+/// branch leaves the contact across it, and so does a trunk's own lumen from a stenosis.
+fn meets_on_its_side(
+    basins: &[u32],
+    basin: u32,
+    contact: &Moments,
+    reach: f64,
+    dims: [usize; 3],
+    grid: &Geometry,
+) -> bool {
+    let normal = contact.normal.normalize_or_zero();
+    if normal == DVec3::ZERO {
+        return false;
+    }
+    let centre = contact.mean();
+    let c = grid.world_to_index(centre);
+    let r = reach / grid.min_spacing();
+    let range = |a: usize| {
+        let lo = (c[a] - r).floor().max(0.0) as usize;
+        let hi = ((c[a] + r).ceil().max(0.0) as usize).min(dims[a] - 1);
+        lo..=hi
+    };
+    let mut near = Moments::default();
+    for k in range(2) {
+        for j in range(1) {
+            for i in range(0) {
+                if basins[i + dims[0] * (j + dims[1] * k)] != basin {
+                    continue;
+                }
+                let p = grid.index_to_world(DVec3::new(i as f64, j as f64, k as f64));
+                if p.distance(centre) <= reach {
+                    near.add(p, 0.0, DVec3::ZERO);
+                }
+            }
+        }
+    }
+    if near.count < MIN_CONTACT_FACES {
+        return false;
+    }
+    let covariance = near.covariance();
+    let across = normal.dot(covariance * normal);
+    let [along, _, _] = symmetric_eigenvalues(covariance);
+    along > SIDE_ELONGATION.powi(2) * across
+}
+
+/// Count, sum and sum of outer products of points (their covariance), the area they stand for
+/// and the sum of their oriented face areas (a patch's normal times its area).
 #[derive(Default)]
 struct Moments {
     count: usize,
     area: f64,
+    normal: DVec3,
     sum: DVec3,
     outer: DMat3,
 }
 
 impl Moments {
-    fn add(&mut self, p: DVec3, area: f64) {
+    fn add(&mut self, p: DVec3, area: f64, normal: DVec3) {
         self.count += 1;
         self.area += area;
+        self.normal += normal;
         self.sum += p;
         self.outer += DMat3::from_cols(p * p.x, p * p.y, p * p.z);
+    }
+
+    fn mean(&self) -> DVec3 {
+        self.sum / self.count as f64
+    }
+
+    fn covariance(&self) -> DMat3 {
+        let mean = self.mean();
+        self.outer * (1.0 / self.count as f64)
+            - DMat3::from_cols(mean * mean.x, mean * mean.y, mean * mean.z)
     }
 
     /// Length over width of the points' spread: the square root of the ratio of the largest
     /// to the second largest variance.
     fn elongation(&self) -> f64 {
-        let n = self.count as f64;
-        let mean = self.sum / n;
-        let covariance =
-            self.outer * (1.0 / n) - DMat3::from_cols(mean * mean.x, mean * mean.y, mean * mean.z);
-        let [largest, second, _] = symmetric_eigenvalues(covariance);
+        let [largest, second, _] = symmetric_eigenvalues(self.covariance());
         (largest / second.max(f64::MIN_POSITIVE)).sqrt()
     }
 }
@@ -421,13 +495,17 @@ mod tests {
         let mut disk = Moments::default();
         for i in 0..40 {
             for j in 0..4 {
-                strip.add(DVec3::new(i as f64, j as f64, 0.1 * j as f64), 1.0);
+                strip.add(
+                    DVec3::new(i as f64, j as f64, 0.1 * j as f64),
+                    1.0,
+                    DVec3::ZERO,
+                );
             }
         }
         for i in -6i32..=6 {
             for j in -6i32..=6 {
                 if i * i + j * j <= 36 {
-                    disk.add(DVec3::new(i as f64, 0.0, j as f64), 1.0);
+                    disk.add(DVec3::new(i as f64, 0.0, j as f64), 1.0, DVec3::ZERO);
                 }
             }
         }
