@@ -342,13 +342,15 @@ fn joined_through_round_contacts(
     let mut pairs: Vec<_> = contacts.into_iter().collect();
     pairs.sort_unstable_by_key(|(pair, _)| *pair);
     for ((a, b), moments) in pairs {
-        let small = moments.count < MIN_CONTACT_FACES;
-        let side_by_side = !small
-            && [a, b].iter().all(|&c| {
-                let reach = SIDE_REACH * thickness[c as usize];
-                meets_on_its_side(basins, c, &moments, reach, dims, grid)
-            });
-        if small || (moments.elongation() <= ELONGATED && !side_by_side) {
+        // The side test reads the basins around the contact: only for contacts that the
+        // contact's own shape leaves open.
+        let round = moments.count < MIN_CONTACT_FACES
+            || (moments.elongation() <= ELONGATED
+                && ![a, b].iter().all(|&c| {
+                    let reach = SIDE_REACH * thickness[c as usize];
+                    meets_on_its_side(basins, c, &moments, reach, dims, grid)
+                }));
+        if round {
             let radius = (moments.area / std::f64::consts::PI).sqrt();
             joined[a as usize].push((b, radius));
             joined[b as usize].push((a, radius));

@@ -6,6 +6,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use balloonseg::balloon::{BalloonParams, Segmenter};
+use balloonseg::evaluation::Overlap;
 use balloonseg::winding_number::inside_mask;
 use balloonseg::{io, mesh_checks, Result};
 use glam::DVec3;
@@ -208,14 +209,19 @@ pub fn run(case: &Case, data: &Path, params: BalloonParams) -> Result<Outcome> {
             let inside = inside_mask(&mesh, label.dims(), label.geometry())?;
             let view = label.view();
             let [ni, nj, _] = label.dims();
-            let (mut both, mut truth, mut ours) = (0usize, 0usize, 0usize);
+            let voxel: f64 = label.geometry().spacing().iter().product();
+            let mut overlap = Overlap {
+                mesh: 0.0,
+                truth: 0.0,
+                both: 0.0,
+            };
             for (n, &m) in inside.iter().enumerate() {
                 let t = view.get_f64(n % ni, n / ni % nj, n / (ni * nj)) > 0.0;
-                both += usize::from(m && t);
-                truth += usize::from(t);
-                ours += usize::from(m);
+                overlap.mesh += f64::from(u8::from(m)) * voxel;
+                overlap.truth += f64::from(u8::from(t)) * voxel;
+                overlap.both += f64::from(u8::from(m && t)) * voxel;
             }
-            Some(2.0 * both as f64 / (truth + ours).max(1) as f64)
+            Some(overlap.dice())
         }
         None => None,
     };
