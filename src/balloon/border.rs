@@ -296,7 +296,14 @@ impl Border {
             .into_iter()
             .chain((1..=STEP_SAMPLES).filter_map(|k| at(target, k as f64)))
             .collect();
-        let inside = behind.iter().copied().fold(behind[0], nearer);
+        // The structure behind is what of it lies in the window: across a thin vessel, the
+        // look behind may reach the darker tissue on its far side, which is no level to step
+        // up from.
+        let inside = behind
+            .iter()
+            .copied()
+            .filter(|&v| falling || self.window.contains(v))
+            .reduce(nearer)?;
         let ahead_level = ahead.iter().copied().fold(there, further);
         // A step is steep: most of it within a few voxels. A bolus fading along a vessel
         // changes as much over the look's five voxels, but never that fast.
@@ -383,5 +390,39 @@ mod tests {
         };
         assert!(!literal.passable(&image, at(10.1)));
         assert!(border.place(&image, at(-1.0)).is_none());
+    }
+
+    /// Intensity along x: `levels` on `[0, 8)`, `[8, 10)` and from 10 on (1 mm voxels).
+    fn bands(levels: [f64; 3]) -> Image {
+        let n = 24;
+        let values = (0..n * n * n)
+            .map(|i| match i % n {
+                x if x < 8 => levels[0],
+                x if x < 10 => levels[1],
+                _ => levels[2],
+            })
+            .collect();
+        Image::new(VoxelBuffer::F64(values), [n, n, n], Geometry::identity()).unwrap()
+    }
+
+    #[test]
+    fn a_step_up_from_a_thin_structure_is_measured_from_it_not_from_the_tissue_behind_it() {
+        // A structure two voxels wide at 200 between dark tissue (100) and bright tissue
+        // (600), with no upper end: the look behind a vertex in it reaches the dark side.
+        let image = bands([100.0, 200.0, 600.0]);
+        let image = ImageScales::new(image.view());
+        let window = IntensityWindow::new(200.0, 150.0, f64::INFINITY);
+        let border = Border {
+            window,
+            edge_strength: 0.0,
+            step: 25.0,
+            voxel: 1.0,
+        };
+        let at = |x: f64| DVec3::new(x, 12.0, 12.0);
+        let step = border.step_ahead(&image, at(9.0), at(10.2)).unwrap();
+        assert!(!step.falling);
+        // Half-way between the structure and the bright tissue (400, less the smoothing of
+        // a structure two voxels wide), not nearer the dark tissue (360 before this rule).
+        assert!((375.0..=420.0).contains(&step.level), "{step:?}");
     }
 }
