@@ -19,8 +19,7 @@
 //! root of a branch). The basins joined to a seed's basin through such contacts are kept, the
 //! rest is cut off.
 
-use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::HashMap;
 
 use glam::{DMat3, DVec3};
 
@@ -99,7 +98,7 @@ pub(crate) fn cut_touching(
             }
         })
         .collect();
-    let basins = nearest_cores(&inside, &cores, dims, spacing);
+    let basins = nearest_cores(&inside, &cores, dims);
     let seed_basins: Vec<u32> = seeds
         .iter()
         .filter_map(|&s| voxel_of(grid.world_to_index(s), dims))
@@ -153,39 +152,41 @@ fn voxel_of(p: DVec3, dims: [usize; 3]) -> Option<usize> {
 }
 
 /// For each voxel of `inside`, the label of the core nearest to it along paths inside (steps
-/// between 6-neighbours, as long as the spacing along their axis); `u32::MAX` outside and where
-/// no core is reached. Ties go to the smaller label, so the partition is deterministic.
-fn nearest_cores(inside: &[bool], cores: &[u32], dims: [usize; 3], spacing: [f64; 3]) -> Vec<u32> {
+/// between 6-neighbours of the isotropic grid); `u32::MAX` outside and where no core is
+/// reached. Ties go to the smaller label, so the partition is deterministic. Every step has
+/// the same length, so a breadth-first flood, ring by ring, finds the shortest paths.
+fn nearest_cores(inside: &[bool], cores: &[u32], dims: [usize; 3]) -> Vec<u32> {
     let grid = Grid(dims);
     let mut label = cores.to_vec();
-    let mut distance = vec![f64::INFINITY; inside.len()];
-    let mut queue = BinaryHeap::new();
-    for (n, &c) in cores.iter().enumerate() {
-        if c != u32::MAX {
-            distance[n] = 0.0;
-            queue.push(Reverse((0u64, c, n)));
-        }
-    }
-    let step = |a: usize, b: usize| {
-        let axis = match a.abs_diff(b) {
-            1 => 0,
-            d if d == dims[0] => 1,
-            _ => 2,
-        };
-        spacing[axis]
-    };
-    while let Some(Reverse((bits, c, n))) = queue.pop() {
-        if f64::from_bits(bits) > distance[n] || label[n] != c {
-            continue;
-        }
-        for m in grid.neighbours(n) {
-            let d = distance[n] + step(n, m);
-            if inside[m] && (d < distance[m] || (d == distance[m] && c < label[m])) {
-                distance[m] = d;
-                label[m] = c;
-                queue.push(Reverse((d.to_bits(), c, m)));
+    let mut ring: Vec<usize> = (0..cores.len()).filter(|&n| cores[n] != u32::MAX).collect();
+    let mut next = Vec::new();
+    while !ring.is_empty() {
+        // The next ring is the unlabelled inside neighbours of this one; each takes the
+        // smallest label among its neighbours here.
+        for &n in &ring {
+            for m in grid.neighbours(n) {
+                if inside[m] && label[m] == u32::MAX {
+                    next.push(m);
+                }
             }
         }
+        next.sort_unstable();
+        next.dedup();
+        let labels: Vec<u32> = next
+            .iter()
+            .map(|&m| {
+                grid.neighbours(m)
+                    .filter(|&o| ring.binary_search(&o).is_ok())
+                    .map(|o| label[o])
+                    .min()
+                    .expect("reached from this ring")
+            })
+            .collect();
+        for (&m, l) in next.iter().zip(labels) {
+            label[m] = l;
+        }
+        std::mem::swap(&mut ring, &mut next);
+        next.clear();
     }
     label
 }
