@@ -331,30 +331,45 @@ mod tests {
             .map(|n| inside(n % 13, n / 13 % 11, n / 143))
             .collect();
         let d = distance_to_outside(&mask, dims, spacing);
-        for (n, &m) in mask.iter().enumerate() {
+        for (n, exact) in brute_force_distances(&mask, dims, spacing)
+            .into_iter()
+            .enumerate()
+        {
             let (i, j, k) = (n % 13, n / 13 % 11, n / 143);
-            // Brute force over every outside voxel.
-            let exact = if m {
-                (0..mask.len())
-                    .filter(|&o| !mask[o])
-                    .map(|o| {
-                        let e = [
-                            (o % 13) as f64 - i as f64,
-                            (o / 13 % 11) as f64 - j as f64,
-                            (o / 143) as f64 - k as f64,
-                        ];
-                        ((e[0] * 0.5).powi(2) + e[1].powi(2) + (e[2] * 2.0).powi(2)).sqrt()
-                    })
-                    .fold(f64::INFINITY, f64::min)
-            } else {
-                0.0
-            };
             assert!(
                 (d[n] - exact).abs() < 1e-9,
                 "({i},{j},{k}): {} vs {exact}",
                 d[n]
             );
         }
+    }
+
+    /// Each voxel's distance to the nearest voxel outside `mask`, over every outside voxel.
+    fn brute_force_distances(mask: &[bool], dims: [usize; 3], spacing: [f64; 3]) -> Vec<f64> {
+        let position = |n: usize| {
+            let (i, j, k) = (n % dims[0], n / dims[0] % dims[1], n / (dims[0] * dims[1]));
+            [
+                i as f64 * spacing[0],
+                j as f64 * spacing[1],
+                k as f64 * spacing[2],
+            ]
+        };
+        (0..mask.len())
+            .map(|n| {
+                if !mask[n] {
+                    return 0.0;
+                }
+                let p = position(n);
+                (0..mask.len())
+                    .filter(|&o| !mask[o])
+                    .map(|o| {
+                        let q = position(o);
+                        ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2))
+                            .sqrt()
+                    })
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect()
     }
 
     #[test]
@@ -377,14 +392,6 @@ mod tests {
         .enumerate()
         .map(|(n, m)| m || n % 97 == 5)
         .collect::<Vec<_>>();
-        let position = |n: usize| {
-            let (i, j, k) = (n % dims[0], n / dims[0] % dims[1], n / (dims[0] * dims[1]));
-            [
-                i as f64 * spacing[0],
-                j as f64 * spacing[1],
-                k as f64 * spacing[2],
-            ]
-        };
         let in_pool = |threads| {
             rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
@@ -394,20 +401,10 @@ mod tests {
         };
         let d = in_pool(1);
         assert_eq!(d, in_pool(2));
-        for (n, &m) in mask.iter().enumerate() {
-            let p = position(n);
-            let exact = if m {
-                (0..mask.len())
-                    .filter(|&o| !mask[o])
-                    .map(|o| {
-                        let q = position(o);
-                        ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2))
-                            .sqrt()
-                    })
-                    .fold(f64::INFINITY, f64::min)
-            } else {
-                0.0
-            };
+        for (n, exact) in brute_force_distances(&mask, dims, spacing)
+            .into_iter()
+            .enumerate()
+        {
             assert!((d[n] - exact).abs() < 1e-9, "{n}: {} vs {exact}", d[n]);
         }
     }
