@@ -64,3 +64,13 @@ fn tubes_touching_at_an_angle_are_cut_apart_where_each_is_met_on_its_wall() {
         passes(Family::TouchingPair, number);
     }
 }
+
+#[test]
+fn a_stents_lumen_ends_on_its_struts_not_half_way_up_or_beyond_them() {
+    // The struts bloom into ridges a voxel or two wide on the lumen's wall. Before the balloon
+    // stopped on their crests (`thin_layer`) it stopped on the fall beyond them, 0.71–0.76 mm
+    // (median) outside the wall of these three (Dice 0.93 each); now 0.07–0.22 mm.
+    for number in [4, 6, 8] {
+        passes(Family::Stent, number);
+    }
+}

@@ -14,6 +14,9 @@
 //!   fat was, a wall a voxel thick). A vertex also stops where the image steps from the
 //!   structure it comes from to the tissue just ahead by a share of the structure's contrast
 //!   (`Border::step_ahead`): the window's border drawn locally, half-way between the two.
+//! - **Thin bright layers**: where the border a vertex stops at is the flank of a ridge a voxel
+//!   or two wide on the structure's wall (a stent's struts), it stops on the ridge's crest
+//!   (`thin_layer`).
 //! - **Edges**: the intensity also leaves the window inside real structures, without an edge:
 //!   contrast mixing in a lumen, a bolus fading along a vessel, noise. The vmtk aorta's lumen
 //!   fades from 1600 to 450 over its last 12 cm, and where it crosses the border its bright part
@@ -193,6 +196,9 @@ pub(crate) struct Border {
     /// A step of the image at the scale of local steps at least this high is an edge even
     /// inside the window (`Border::step_ahead`; 0: none is).
     pub step: f64,
+    /// The crest of a thin bright layer stands at least this high above the structure behind
+    /// it (`thin_layer`; 0: no layer is thin).
+    pub crest: f64,
     /// A voxel (mm): local steps are measured within [`STEP_SAMPLES`] half voxels.
     pub voxel: f64,
 }
@@ -368,6 +374,7 @@ mod tests {
             window: IntensityWindow::symmetric(1000.0, 100.0),
             edge_strength: 200.0,
             step: 0.0,
+            crest: 0.0,
             voxel: 1.0,
         };
         let at = |x: f64| DVec3::new(x, 20.0, 20.0);
@@ -416,6 +423,7 @@ mod tests {
             window,
             edge_strength: 0.0,
             step: 25.0,
+            crest: 0.0,
             voxel: 1.0,
         };
         let at = |x: f64| DVec3::new(x, 12.0, 12.0);

@@ -6,7 +6,9 @@
 //! A vertex whose step crosses the border (`border`: where the smoothed image stops the
 //! balloon) or the volume's edge is put on the crossing, found by bisection on the trilinear
 //! intensity, and frozen there: the border is located to a small fraction of the step, not to
-//! the step itself. Frozen vertices no longer move (paper, section 2).
+//! the step itself. Where the border is the flank of a thin bright layer (a stent's struts),
+//! the vertex freezes on the layer's crest instead (`thin_layer`). Frozen vertices no longer
+//! move (paper, section 2).
 //!
 //! Each vertex's new position depends only on the surface before the step, so vertices are
 //! updated in parallel with the same result for any thread count.
@@ -118,7 +120,7 @@ impl Stepper<'_, '_> {
                         .sample_world(x + t * dx)
                         .is_some_and(|v| !step.crossed(v))
                 });
-                return (x + lo * dx, VertexState::FrozenAtBorder);
+                return self.stop(x, lo, dx);
             }
         }
         if same_side(target) {
@@ -138,13 +140,26 @@ impl Stepper<'_, '_> {
         if here.in_window {
             bisect(&mut lo, &mut hi, |t| in_window(x + t * dx));
             if !self.border.passable(self.image, x + hi * dx) {
-                return (x + lo * dx, VertexState::FrozenAtBorder);
+                return self.stop(x, lo, dx);
             }
             lo = hi;
             hi = 1.0;
         }
         bisect(&mut lo, &mut hi, |t| same_side(x + t * dx));
-        (x + lo * dx, VertexState::FrozenAtBorder)
+        self.stop(x, lo, dx)
+    }
+
+    /// Freezes a vertex on the border it meets at `x + t dx`, or on the crest of a thin bright
+    /// layer there (`thin_layer`).
+    fn stop(&self, x: DVec3, t: f64, dx: DVec3) -> (DVec3, VertexState) {
+        let crossing = x + t * dx;
+        // Beyond the border, no farther than a step would take the vertex: a crest farther
+        // ahead may be a bright neighbour's, reached through it.
+        let stop = self
+            .border
+            .thin_layer_crest(self.image, crossing, dx.normalize(), self.max_step)
+            .unwrap_or(crossing);
+        (stop, VertexState::FrozenAtBorder)
     }
 }
 
@@ -181,6 +196,7 @@ mod tests {
                 window: IntensityWindow::symmetric(reference, tolerance),
                 edge_strength: 0.0,
                 step: 0.0,
+                crest: 0.0,
                 voxel: 1.0,
             },
             weights,

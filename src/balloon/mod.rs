@@ -17,6 +17,7 @@ mod reparametrize;
 pub mod seed_statistics;
 mod segmenter;
 pub mod surface;
+mod thin_layer;
 mod touching;
 mod untangle;
 

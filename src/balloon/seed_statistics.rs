@@ -44,7 +44,7 @@ use super::border::{ImageScales, IntensityWindow};
 use super::hounsfield;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
-use crate::smoothed_volume::gaussian_weights;
+use crate::smoothed_volume::{gaussian_weights, SmoothedVolume};
 use crate::volume::Volume;
 
 /// The tissue the rays met on one side of the structure (darker or brighter).
@@ -70,6 +70,9 @@ pub struct SeedStatistics {
     /// structure (noise and the structure's own texture, such as contrast mixing in a lumen), on the rays between a voxel from the seed and
     /// [`TEXTURE_REACH`] of the way to their edges.
     pub texture: f64,
+    /// The same on the fine image (`ImageScales::fine`), where the crests of thin bright layers
+    /// are read (`thin_layer`).
+    pub fine_texture: f64,
     pub darker: Neighbours,
     pub brighter: Neighbours,
     /// In a CT, the level of the soft tissue around the seed (`hounsfield`).
@@ -188,11 +191,13 @@ pub(crate) fn estimate(
         brighter_side.border.min(ct_upper).max(reference + margin),
     );
     let mut slopes: Vec<f64> = darker.iter().chain(&brighter).map(|e| e.slope).collect();
-    let texture = texture(image, seed, darker.iter().chain(&brighter));
+    let texture_on = |scale| texture(scale, seed, darker.iter().chain(&brighter));
+    let (texture, fine_texture) = (texture_on(&image.mid), texture_on(&image.fine));
     Ok(SeedStatistics {
         reference,
         noise,
         texture,
+        fine_texture,
         soft_tissue,
         darker: darker_side,
         brighter: brighter_side,
@@ -464,15 +469,15 @@ fn seed_level(image: &ImageScales<'_>, seed: DVec3) -> Result<f64> {
     }
 }
 
-/// σ (1.4826 MAD) of the image at the scale of local steps on the rays of `edges` from `seed`, between a voxel from the
-/// seed and [`TEXTURE_REACH`] of the way to each ray's edge; 0 where the structure is too small
-/// for any sample.
+/// σ (1.4826 MAD) of the image at `scale` on the rays of `edges` from `seed`, between a voxel
+/// from the seed and [`TEXTURE_REACH`] of the way to each ray's edge; 0 where the structure is
+/// too small for any sample.
 fn texture<'e>(
-    image: &ImageScales<'_>,
+    scale: &SmoothedVolume<'_>,
     seed: DVec3,
     edges: impl Iterator<Item = &'e RayEdge>,
 ) -> f64 {
-    let geometry = image.mid.geometry();
+    let geometry = scale.geometry();
     let step = 0.5 * geometry.min_spacing();
     let start = geometry.max_spacing();
     let mut samples: Vec<f64> = edges
@@ -481,7 +486,7 @@ fn texture<'e>(
             (0..)
                 .map(move |n| start + n as f64 * step)
                 .take_while(move |&s| s <= end)
-                .filter_map(move |s| image.mid.sample_world(seed + s * e.direction))
+                .filter_map(move |s| scale.sample_world(seed + s * e.direction))
         })
         .filter(|v| v.is_finite())
         .collect();

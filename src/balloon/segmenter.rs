@@ -28,6 +28,7 @@ use super::params::BalloonParams;
 use super::reparametrize::{inherited_states, reparametrize, Keep};
 use super::seed_statistics::{self, SeedStatistics};
 use super::surface::{Surface, VertexState};
+use super::thin_layer;
 use super::touching::cut_touching;
 use super::untangle;
 use crate::error::{Error, Result};
@@ -235,6 +236,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                 window,
                 edge_strength,
                 step,
+                crest: thin_layer::smallest_crest(step, estimate.as_ref()),
                 voxel: geometry.mean_spacing(),
             },
             edge_length,

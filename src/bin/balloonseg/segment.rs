@@ -228,6 +228,7 @@ fn stats_json(
         "intensity_model": stats.seed_statistics.map(|m| json!({
             "noise_sigma": m.noise,
             "texture_sigma": m.texture,
+            "fine_texture_sigma": m.fine_texture,
             "ct_soft_tissue": m.soft_tissue,
             "rays": RAYS,
             "rays_with_edge": m.rays_exited(),
