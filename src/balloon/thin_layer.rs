@@ -66,41 +66,50 @@ impl Border {
             return None;
         }
         let h = self.voxel / SAMPLES_PER_VOXEL;
-        let reach = (REACH_VOXELS * SAMPLES_PER_VOXEL).round() as i64;
-        let point = |k: i64| crossing + (k as f64 * h) * direction;
-        // From the plateau behind the farthest crest behind to a reach beyond the farthest
-        // ahead.
-        let samples: Vec<f64> = (-3 * reach..=2 * reach)
-            .map(|k| image.fine.sample_world(point(k)))
-            .collect::<Option<Vec<f64>>>()?;
-        let reach = reach as usize;
+        let reach = (REACH_VOXELS * SAMPLES_PER_VOXEL).round() as usize;
         let centre = 3 * reach;
+        // Sample k lies (k − centre) h along the way from the crossing: from the plateau
+        // behind the farthest crest behind to a reach beyond the farthest crest ahead. Most
+        // stops have no crest near, so the samples are read as the tests need them.
+        let at = |k: usize| {
+            let along = (k as f64 - centre as f64) * h;
+            image.fine.sample_world(crossing + along * direction)
+        };
+        let read = |range: std::ops::RangeInclusive<usize>| -> Option<Vec<f64>> {
+            range.map(at).collect()
+        };
         let farthest = centre + ((ahead / h).floor().max(0.0) as usize).min(reach);
-        let crest = (centre - reach..=farthest)
-            .max_by(|&a, &b| samples[a].total_cmp(&samples[b]).then(b.cmp(&a)))?;
-        let top = samples[crest];
-        // The search's end on a rising flank is no crest.
-        if samples[crest + 1] > top {
+        let near = read(centre - reach..=farthest + 1)?;
+        let (offset, top) = near[..near.len() - 1]
+            .iter()
+            .copied()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))?;
+        let crest = centre - reach + offset;
+        // The search's end on a rising flank is no crest, and a crest stands its height above
+        // a plateau in the window's lower half or above.
+        let plateau_floor = 0.5 * (window.reference + window.lower);
+        if near[offset + 1] > top || top < plateau_floor + self.crest {
             return None;
         }
+        let beyond = read(crest + 1..=crest + reach)?;
+        if !beyond.iter().any(|&v| v < window.lower) {
+            return None;
+        }
+        let behind = read(crest - 2 * reach..=crest)?;
         // The plateau's level and its slope, from the means of its halves: noise makes the
         // range of a few samples wide where their means hardly move.
-        let plateau = &samples[crest - 2 * reach..crest - reach];
+        let plateau = &behind[..reach];
         let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
-        let (far, near) = plateau.split_at(plateau.len() / 2);
+        let (far, close) = plateau.split_at(plateau.len() / 2);
         let level = mean(plateau);
-        let flat = (mean(near) - mean(far)).abs() <= FLATNESS * self.step
-            && level >= 0.5 * (window.reference + window.lower);
+        let flat =
+            (mean(close) - mean(far)).abs() <= FLATNESS * self.step && level >= plateau_floor;
         // Nothing darker than the structure between the plateau and the crest: a vertex never
         // moves onto a crest across a wall.
-        let joined = samples[crest - 2 * reach..crest]
-            .iter()
-            .all(|&v| v >= window.lower);
-        let dark = samples[crest + 1..=crest + reach]
-            .iter()
-            .any(|&v| v < window.lower);
-        (flat && joined && top - level >= self.crest && dark).then(|| {
-            let offset = parabolic_peak(samples[crest - 1], top, samples[crest + 1]);
+        let joined = behind.iter().all(|&v| v >= window.lower);
+        (flat && joined && top - level >= self.crest).then(|| {
+            let offset = parabolic_peak(behind[2 * reach - 1], top, beyond[0]);
             crossing + ((crest as f64 - centre as f64 + offset) * h) * direction
         })
     }
