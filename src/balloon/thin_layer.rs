@@ -86,8 +86,8 @@ impl Border {
             .enumerate()
             .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))?;
         let crest = centre - reach + offset;
-        // The search's end on a rising flank is no crest, and a crest stands its height above
-        // a plateau in the window's lower half or above.
+        // The search's end on a rising flank is no crest, and a crest stands at least
+        // `Border::crest` above a plateau in the window's lower half or above.
         let plateau_floor = 0.5 * (window.reference + window.lower);
         if near[offset + 1] > top || top < plateau_floor + self.crest {
             return None;
