@@ -14,6 +14,11 @@
 //!   fat was, a wall a voxel thick). A vertex also stops where the image steps from the
 //!   structure it comes from to the tissue just ahead by a share of the structure's contrast
 //!   (`Border::step_ahead`): the window's border drawn locally, half-way between the two.
+//! - **Thin dark walls**: a wall under a voxel thick survives blurring only as a dip of a
+//!   fraction of the contrast, less than a local step, the more so for a vertex that remeshing
+//!   put on the wall's near ramp. Two edges a voxel or two apart, down and up again, are an edge
+//!   at a smaller depth (`Border::valley`): far above the image's texture inside the structure,
+//!   which the slow undulations of a thin tortuous vessel also reach.
 //! - **Thin bright layers**: where the border a vertex stops at is the flank of a ridge a voxel
 //!   or two wide on the structure's wall (a stent's struts), it stops on the ridge's crest
 //!   (`thin_layer`).
@@ -199,6 +204,10 @@ pub(crate) struct Border {
     /// The crest of a thin bright layer stands at least this high above the structure behind
     /// it (`thin_layer`; 0: no layer is thin).
     pub crest: f64,
+    /// A thin wall of darker tissue: where the image at the scale of local steps dips at least
+    /// this far below the structure and rises again beyond by half as much, the dip is an edge
+    /// even where it is less than a local step (`Border::step_ahead`; 0: no dip is).
+    pub valley: f64,
     /// A voxel (mm): local steps are measured within [`STEP_SAMPLES`] half voxels.
     pub voxel: f64,
 }
@@ -320,7 +329,13 @@ impl Border {
             .windows(3)
             .map(|w| (w[2] - w[0]).abs())
             .fold(0.0, f64::max);
-        let steep = STEEP_VOXELS * steepest >= (inside - ahead_level).abs();
+        let depth = (inside - ahead_level).abs();
+        let steep = STEEP_VOXELS * steepest >= depth;
+        let high_enough = depth >= self.step
+            || (falling
+                && self.valley > 0.0
+                && depth >= self.valley
+                && self.rise_beyond(image, target, direction, &ahead) >= 0.5 * self.valley);
         let ahead = ahead_level;
         let step = Step {
             level: 0.5 * (inside + ahead),
@@ -334,7 +349,34 @@ impl Border {
             .fine
             .sample_world(target)
             .is_some_and(|v| step.crossed(v));
-        ((inside - ahead).abs() >= self.step && steep && tightens && crossed).then_some(step)
+        (high_enough && steep && tightens && crossed).then_some(step)
+    }
+
+    /// How far the image at the scale of local steps rises again within [`STEP_SAMPLES`] half
+    /// voxels beyond the lowest of `ahead` (its samples every half voxel from `target` along
+    /// `direction`): a thin wall's far side.
+    fn rise_beyond(
+        &self,
+        image: &ImageScales<'_>,
+        target: DVec3,
+        direction: DVec3,
+        ahead: &[f64],
+    ) -> f64 {
+        let Some((lowest_at, lowest)) = ahead
+            .iter()
+            .copied()
+            .enumerate()
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+        else {
+            return 0.0;
+        };
+        (1..=STEP_SAMPLES)
+            .filter_map(|k| {
+                let along = (lowest_at + k) as f64 * self.voxel / 2.0;
+                image.mid.sample_world(target + along * direction)
+            })
+            .fold(lowest, f64::max)
+            - lowest
     }
 
     /// Whether the balloon may go to `x`: [`Border::place`]'s verdict, `false` outside.
@@ -375,6 +417,7 @@ mod tests {
             edge_strength: 200.0,
             step: 0.0,
             crest: 0.0,
+            valley: 0.0,
             voxel: 1.0,
         };
         let at = |x: f64| DVec3::new(x, 20.0, 20.0);
@@ -412,6 +455,57 @@ mod tests {
         Image::new(VoxelBuffer::F64(values), [n, n, n], Geometry::identity()).unwrap()
     }
 
+    /// Intensity along x by `profile(x)` (1 mm voxels, 24 wide).
+    fn along_x(profile: impl Fn(f64) -> f64) -> Image {
+        let n = 24;
+        let values = (0..n * n * n).map(|i| profile((i % n) as f64)).collect();
+        Image::new(VoxelBuffer::F64(values), [n, n, n], Geometry::identity()).unwrap()
+    }
+
+    #[test]
+    fn a_wall_thinner_than_a_voxel_stops_a_vertex_on_its_near_ramp_although_it_dips_less_than_a_step(
+    ) {
+        // A structure at 1000 with a wall of tissue at 100 from x = 11.7 to 12.3 (0.6 voxel, as
+        // partial volume and blur leave it: a dip of about 300 on the scale of local steps),
+        // and more of the structure beyond; a step is 400, half the contrast.
+        let wall = along_x(|x| {
+            let covered = ((x + 0.5).min(12.3) - (x - 0.5).max(11.7)).max(0.0);
+            1000.0 - 900.0 * covered
+        });
+        let image = ImageScales::new(wall.view());
+        let border = Border {
+            window: IntensityWindow::new(1000.0, 550.0, f64::INFINITY),
+            edge_strength: 0.0,
+            step: 400.0,
+            crest: 0.0,
+            valley: 200.0,
+            voxel: 1.0,
+        };
+        let at = |x: f64| DVec3::new(x, 12.0, 12.0);
+        // A vertex that remeshing put on the wall's near ramp, half a voxel from its centre.
+        let (x, target) = (at(11.4), at(11.9));
+        let step = border
+            .step_ahead(&image, x, target)
+            .expect("the wall stops it");
+        assert!(
+            step.falling && (550.0..1000.0).contains(&step.level),
+            "{step:?}"
+        );
+        // As a step alone (no valleys) the dip is not deep enough.
+        let steps_only = Border {
+            valley: 0.0,
+            ..border
+        };
+        assert_eq!(steps_only.step_ahead(&image, x, target), None);
+        // The same fall with nothing beyond it (one edge, not two) is no edge either.
+        let fall = along_x(|x| {
+            let covered = ((x + 0.5).min(23.0) - (x - 0.5).max(11.7)).clamp(0.0, 1.0);
+            1000.0 - 300.0 * covered
+        });
+        let image = ImageScales::new(fall.view());
+        assert_eq!(border.step_ahead(&image, x, target), None);
+    }
+
     #[test]
     fn a_step_up_from_a_thin_structure_is_measured_from_it_not_from_the_tissue_behind_it() {
         // A structure two voxels wide at 200 between dark tissue (100) and bright tissue
@@ -424,6 +518,7 @@ mod tests {
             edge_strength: 0.0,
             step: 25.0,
             crest: 0.0,
+            valley: 0.0,
             voxel: 1.0,
         };
         let at = |x: f64| DVec3::new(x, 12.0, 12.0);

@@ -197,6 +197,7 @@ mod tests {
                 edge_strength: 0.0,
                 step: 0.0,
                 crest: 0.0,
+                valley: 0.0,
                 voxel: 1.0,
             },
             weights,

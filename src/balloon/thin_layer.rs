@@ -146,6 +146,7 @@ mod tests {
             edge_strength: 0.0,
             step: 60.0,
             crest: 60.0,
+            valley: 0.0,
             voxel: 1.0,
         }
     }
