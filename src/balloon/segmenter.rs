@@ -86,9 +86,12 @@ fn local_step(window: &IntensityWindow, estimate: Option<&SeedStatistics>) -> f6
 /// The smallest dip of a thin dark wall (`Border::valley`): half a local step, and far above
 /// the image's variation inside the structure (on the phantom families a thin tortuous
 /// vessel's undulations along its length reach 6 σ of it; a wall of 0.64 voxel under 0.5 mm of
-/// blur dips by about 12 σ).
+/// blur dips by about 12 σ). A window given without an estimate comes with no texture to tell
+/// a wall's dip from the structure's own: then no dip is an edge.
 fn smallest_valley(step: f64, estimate: Option<&SeedStatistics>) -> f64 {
-    (VALLEY_STEP_SHARE * step).max(VALLEY_TEXTURE * estimate.map_or(0.0, |s| s.texture))
+    estimate.map_or(0.0, |s| {
+        (VALLEY_STEP_SHARE * step).max(VALLEY_TEXTURE * s.texture)
+    })
 }
 
 /// Splits the edges longer than `split`, collapses those shorter than `collapse` and flips for
