@@ -403,10 +403,12 @@ mod tests {
 
     /// Intensity falling along x: from 1000 by `slope` per voxel (1 mm).
     fn ramp(slope: f64) -> Image {
-        let n = 40;
-        let values = (0..n * n * n)
-            .map(|i| 1000.0 - slope * (i % n) as f64)
-            .collect();
+        along_x(40, |x| 1000.0 - slope * x)
+    }
+
+    /// Intensity along x by `profile(x)` on an `n`³ grid of 1 mm voxels.
+    fn along_x(n: usize, profile: impl Fn(f64) -> f64) -> Image {
+        let values = (0..n * n * n).map(|i| profile((i % n) as f64)).collect();
         Image::new(VoxelBuffer::F64(values), [n, n, n], Geometry::identity()).unwrap()
     }
 
@@ -444,31 +446,20 @@ mod tests {
 
     /// Intensity along x: `levels` on `[0, 8)`, `[8, 10)` and from 10 on (1 mm voxels).
     fn bands(levels: [f64; 3]) -> Image {
-        let n = 24;
-        let values = (0..n * n * n)
-            .map(|i| match i % n {
-                x if x < 8 => levels[0],
-                x if x < 10 => levels[1],
-                _ => levels[2],
-            })
-            .collect();
-        Image::new(VoxelBuffer::F64(values), [n, n, n], Geometry::identity()).unwrap()
-    }
-
-    /// Intensity along x by `profile(x)` (1 mm voxels, 24 wide).
-    fn along_x(profile: impl Fn(f64) -> f64) -> Image {
-        let n = 24;
-        let values = (0..n * n * n).map(|i| profile((i % n) as f64)).collect();
-        Image::new(VoxelBuffer::F64(values), [n, n, n], Geometry::identity()).unwrap()
+        along_x(24, |x| match x {
+            x if x < 8.0 => levels[0],
+            x if x < 10.0 => levels[1],
+            _ => levels[2],
+        })
     }
 
     #[test]
     fn a_wall_thinner_than_a_voxel_stops_a_vertex_on_its_near_ramp_although_it_dips_less_than_a_step(
     ) {
         // A structure at 1000 with a wall of tissue at 100 from x = 11.7 to 12.3 (0.6 voxel, as
-        // partial volume and blur leave it: a dip of about 300 on the scale of local steps),
-        // and more of the structure beyond; a step is 400, half the contrast.
-        let wall = along_x(|x| {
+        // partial volume leaves it: a dip of about 215 on the scale of local steps), and more
+        // of the structure beyond; a step is 400, under half the contrast.
+        let wall = along_x(24, |x| {
             let covered = ((x + 0.5).min(12.3) - (x - 0.5).max(11.7)).max(0.0);
             1000.0 - 900.0 * covered
         });
@@ -498,7 +489,7 @@ mod tests {
         };
         assert_eq!(steps_only.step_ahead(&image, x, target), None);
         // The same fall with nothing beyond it (one edge, not two) is no edge either.
-        let fall = along_x(|x| {
+        let fall = along_x(24, |x| {
             let covered = ((x + 0.5).min(23.0) - (x - 0.5).max(11.7)).clamp(0.0, 1.0);
             1000.0 - 300.0 * covered
         });
