@@ -350,12 +350,13 @@ fn joined_through_round_contacts(
         // The side test reads the basins around the contact: only for contacts that the
         // contact's own shape leaves open.
         let thicker = thickness[a as usize].max(thickness[b as usize]);
+        let on_its_side =
+            |c: u32, t: f64| meets_on_its_side(basins, c, &moments, SIDE_REACH * t, dims, grid);
         let round = moments.count < MIN_CONTACT_FACES
             || (moments.elongation() <= ELONGATED
                 && ![a, b].iter().all(|&c| {
-                    [thickness[c as usize], thicker].iter().any(|&t| {
-                        meets_on_its_side(basins, c, &moments, SIDE_REACH * t, dims, grid)
-                    })
+                    let own = thickness[c as usize];
+                    on_its_side(c, own) || (own < thicker && on_its_side(c, thicker))
                 }));
         if round {
             let radius = (moments.area / std::f64::consts::PI).sqrt();
