@@ -16,6 +16,7 @@ mod remesh;
 mod reparametrize;
 pub mod seed_statistics;
 mod segmenter;
+mod settling;
 pub mod surface;
 mod thin_layer;
 mod touching;

@@ -27,6 +27,7 @@ use super::inflation::{Scratch, StepReport, Stepper};
 use super::params::BalloonParams;
 use super::reparametrize::{inherited_states, reparametrize, Keep};
 use super::seed_statistics::{self, SeedStatistics};
+use super::settling;
 use super::surface::{Surface, VertexState};
 use super::thin_layer;
 use super::touching::cut_touching;
@@ -645,9 +646,10 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         self.validated(unfaired)
     }
 
-    /// Fairs the final surface (`fairing`), unless it stopped with contacts (re-parametrised
-    /// next, in `validated`). Returns the positions before, by slot, for `validated` to put
-    /// back where fairing made the surface meet itself.
+    /// Fairs the final surface (`fairing`) and, in CT, settles it onto the local half level
+    /// where fat or lung lies ahead (`settling`), unless it stopped with contacts
+    /// (re-parametrised next, in `validated`). Returns the positions before, by slot, for
+    /// `validated` to put back where either made the surface meet itself.
     fn fair(&mut self) -> Option<Vec<DVec3>> {
         if self.has_self_intersections() {
             return None;
@@ -655,6 +657,16 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         let start = Instant::now();
         let surface = &mut self.surface;
         let before = self.pool.install(|| fairing::fair(surface));
+        let soft_tissue = self
+            .stats
+            .seed_statistics
+            .as_ref()
+            .and_then(|s| s.soft_tissue);
+        if let Some(soft) = soft_tissue {
+            let (surface, image, border) = (&mut self.surface, &self.image, &self.border);
+            self.pool
+                .install(|| settling::settle(surface, image, border, soft));
+        }
         self.index_surface();
         self.stats
             .seconds
