@@ -55,7 +55,7 @@ const COARSE_VOXELS: f64 = 2.0;
 const EDGE_FRACTION: f64 = 0.25;
 /// How far behind a vertex and ahead of its target a local step's two levels are measured, in
 /// samples every half voxel: two and a half voxels, the width of a blurred edge's ramp.
-const STEP_SAMPLES: usize = 5;
+pub(super) const STEP_SAMPLES: usize = 5;
 /// A local step happens within this many voxels at its steepest slope.
 const STEEP_VOXELS: f64 = 3.0;
 /// The hysteresis window's half-width, in tolerances.

@@ -22,12 +22,9 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::border::{Border, ImageScales};
+use super::border::{Border, ImageScales, STEP_SAMPLES};
 use super::surface::{Surface, VertexState};
 
-/// How far behind and ahead of a vertex the two levels are read, in samples every half voxel
-/// (the width of a blurred edge's ramp, as for local steps).
-const LOOK_SAMPLES: usize = 5;
 /// Tissue ahead darker than the soft tissue by this share of the structure's contrast to it is
 /// fat or lung, not soft tissue at a level the window's lower end was raised to keep out.
 const DARKER_THAN_SOFT: f64 = 0.25;
@@ -69,10 +66,11 @@ fn settled(
     }
     let half_voxel = 0.5 * border.voxel;
     let mid = |k: f64| image.mid.sample_world(x + k * half_voxel * n);
-    let inside = (0..=LOOK_SAMPLES)
+    // As far behind and ahead as a local step's two levels are read: a blurred edge's ramp.
+    let inside = (0..=STEP_SAMPLES)
         .filter_map(|k| mid(-(k as f64)))
         .fold(f64::NEG_INFINITY, f64::max);
-    let ahead = (1..=LOOK_SAMPLES)
+    let ahead = (1..=STEP_SAMPLES)
         .filter_map(|k| mid(k as f64))
         .fold(f64::INFINITY, f64::min);
     if ahead >= soft - DARKER_THAN_SOFT * (window.reference - soft) {
