@@ -184,7 +184,8 @@ impl<'a, T: Scalar> TypedVolume<'a, T> {
         Some(&self.data[start..start + self.dims[0]])
     }
 
-    /// Trilinear interpolation at a continuous index; `None` outside `[0, dims-1]` on any axis.
+    /// Trilinear interpolation at a continuous index, the edge voxels' values held for half a
+    /// voxel beyond them; `None` outside `[-0.5, dims-0.5]` on any axis.
     pub fn sample_index(&self, p: DVec3) -> Option<f64> {
         let cell = Cell::around(p, self.dims)?;
         let corners = cell.corners().map(|[i, j, k]| self.get(i, j, k).to_f64());
@@ -209,22 +210,26 @@ pub(crate) struct Cell {
 }
 
 impl Cell {
-    /// The cell around `p`; `None` outside `[0, dims-1]` on any axis.
+    /// The cell around `p`; `None` outside `[-0.5, dims-0.5]` on any axis.
     #[inline(always)]
     pub fn around(p: DVec3, dims: [usize; 3]) -> Option<Cell> {
         let mut lo = [0usize; 3];
         let mut t = DVec3::ZERO;
         for a in 0..3 {
             let max = (dims[a] - 1) as f64;
-            if !(p[a] >= 0.0 && p[a] <= max) {
+            if !(p[a] >= -0.5 && p[a] <= max + 0.5) {
                 return None;
             }
+            // A voxel covers half a spacing on either side of its centre (ITK's buffered
+            // region, `IsInsideBuffer`): within that half voxel beyond the last centre the
+            // edge voxel's value holds, so a structure cut by the volume fills its edge voxels.
+            let p_a = p[a].clamp(0.0, max);
             // On the last plane the cell below is used with weight 1 on its upper corner. The
             // coordinate is not negative, so truncating it is its floor, without the call to
             // libm's `floor` that baseline x86-64 makes (the stepper samples millions of times).
-            let cell = (p[a] as usize).min(dims[a].saturating_sub(2));
+            let cell = (p_a as usize).min(dims[a].saturating_sub(2));
             lo[a] = cell;
-            t[a] = p[a] - cell as f64;
+            t[a] = p_a - cell as f64;
         }
         let hi = [0, 1, 2].map(|a| (lo[a] + 1).min(dims[a] - 1));
         Some(Cell { lo, hi, t })
@@ -603,7 +608,7 @@ mod tests {
     }
 
     #[test]
-    fn trilinear_sampling_is_exact_on_linear_fields_up_to_the_last_plane() {
+    fn trilinear_sampling_is_exact_on_linear_fields_and_holds_the_edge_half_a_voxel_beyond() {
         let dims = [4, 3, 2];
         let data = ramp(dims);
         let g = Geometry::new(
@@ -624,8 +629,17 @@ mod tests {
             let w = g.index_to_world(p);
             assert!((v.sample_world(w).unwrap() - expected).abs() < 1e-9);
         }
-        assert_eq!(v.sample_index(DVec3::new(3.0001, 0.0, 0.0)), None);
-        assert_eq!(v.sample_index(DVec3::new(-0.0001, 0.0, 0.0)), None);
+        // Within half a voxel beyond the last centres the edge voxels' values hold.
+        assert_eq!(
+            v.sample_index(DVec3::new(3.5, 0.0, 0.0)),
+            v.sample_index(DVec3::new(3.0, 0.0, 0.0))
+        );
+        assert_eq!(
+            v.sample_index(DVec3::new(-0.5, 2.4, 0.0)),
+            v.sample_index(DVec3::new(0.0, 2.0, 0.0))
+        );
+        assert_eq!(v.sample_index(DVec3::new(3.5001, 0.0, 0.0)), None);
+        assert_eq!(v.sample_index(DVec3::new(-0.5001, 0.0, 0.0)), None);
         assert_eq!(v.sample_index(DVec3::new(f64::NAN, 0.0, 0.0)), None);
     }
 
