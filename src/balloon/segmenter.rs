@@ -646,8 +646,8 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         self.validated(unfaired)
     }
 
-    /// Fairs the final surface (`fairing`) and, in CT, settles it onto the local half level
-    /// where fat or lung lies ahead (`settling`), unless it stopped with contacts
+    /// Fairs the final surface (`fairing`) and settles it onto the local half level where
+    /// background lies ahead (`settling`), unless it stopped with contacts
     /// (re-parametrised next, in `validated`). Returns the positions before, by slot, for
     /// `validated` to put back where either made the surface meet itself.
     fn fair(&mut self) -> Option<Vec<DVec3>> {
@@ -662,11 +662,9 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .seed_statistics
             .as_ref()
             .and_then(|s| s.soft_tissue);
-        if let Some(soft) = soft_tissue {
-            let (surface, image, border) = (&mut self.surface, &self.image, &self.border);
-            self.pool
-                .install(|| settling::settle(surface, image, border, soft));
-        }
+        let (surface, image, border) = (&mut self.surface, &self.image, &self.border);
+        self.pool
+            .install(|| settling::settle(surface, image, border, soft_tissue));
         self.index_surface();
         self.stats
             .seconds

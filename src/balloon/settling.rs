@@ -1,22 +1,31 @@
-//! Settling the finished surface onto the local half level in CT, where the tissue right outside
-//! is darker than the tissue the window's lower end guards against.
+//! Settling the finished surface onto the local half level: half-way between the structure
+//! right behind each vertex and the tissue right ahead, where that lies outside the window's
+//! lower end.
 //!
-//! In CT the window's lower end is at least half-way to the soft tissue around the seed
-//! (`hounsfield`): a vessel that meets fat around the seed runs against enhanced parenchyma and
-//! muscle a few centimetres on, and a window half-way to fat would take those in. Where the
-//! vessel does meet fat (or lung), its edge — half-way between the structure and the fat, as
-//! the window's ends are drawn everywhere else (full width at half maximum) — lies below that
-//! lower end, so the balloon stops a few tenths of a millimetre inside it (every one of the
-//! CT phantom family's balloons came out smaller than its truth: 0.85–1.00 of its volume,
-//! median 0.95).
+//! The window's lower end is one level for the whole balloon, drawn from the seed's
+//! surroundings. Two kinds of images put the structure's own edge below it:
+//! - **CT**: the lower end is at least half-way to the soft tissue around the seed
+//!   (`hounsfield`): a vessel that meets fat around the seed runs against enhanced parenchyma
+//!   and muscle a few centimetres on, and a window half-way to fat would take those in. Where
+//!   the vessel does meet fat (or lung), its edge — half-way between the structure and the fat,
+//!   as the window's ends are drawn everywhere else (full width at half maximum) — lies below
+//!   that lower end (every one of the CT phantom family's balloons came out smaller than its
+//!   truth: 0.85–1.00 of its volume, median 0.95).
+//! - **MR, no fixed units**: the bolus and the coil's bias drift along a vessel, so where a
+//!   vessel is dimmer than at the seed its half level lies below the lower end drawn from the
+//!   seed's, and its surface sat up to a third of a voxel inside (thin tortuous vessels whose
+//!   contrast drifts to half: 0.6–0.9 of their volume).
 //!
-//! So once the surface is final, each vertex looks along its outward normal, at the scale of
-//! local steps (`ImageScales::mid`): the structure's level is the highest within 2.5 voxels
-//! behind it, the tissue ahead the lowest within 2.5 voxels ahead. Where that tissue is darker
-//! than the soft tissue by a quarter of the structure's contrast to it, and the half level
+//! So once the surface is final, each vertex frozen at the border looks along its outward
+//! normal: the structure's level is the highest within 2.5 voxels behind it, the tissue ahead
+//! the lowest within 2.5 voxels ahead (at the scale of local steps, `ImageScales::mid`). Where
+//! that tissue is background — in CT darker than the soft tissue by a quarter of the
+//! structure's contrast to it (fat or lung); otherwise below the window — and the half level
 //! between the two lies below the window's lower end, the vertex moves out to where the fine
-//! image crosses the half level, at most a voxel. The lower end still decides where the balloon
-//! may go while it grows, so it never enters soft tissue at the vessel's own level; only the
+//! image crosses the half level, at most a voxel. In MR the structure's level is read on the
+//! fine image: a tube two or three voxels across loses a third of its peak at the scale of
+//! local steps, which would put its half level too low. The lower end still decides where the
+//! balloon may go while it grows, so it never enters tissue at the vessel's own level; only the
 //! place of the surface on an edge it already stopped at changes.
 
 use glam::DVec3;
@@ -32,9 +41,15 @@ const DARKER_THAN_SOFT: f64 = 0.25;
 const STEPS_PER_VOXEL: usize = 8;
 
 /// Moves the vertices of `surface` frozen at the border out to the local half level where the
-/// tissue ahead is darker than the soft tissue at `soft` (HU; see the module's comment). The
-/// same result for any thread count.
-pub(super) fn settle(surface: &mut Surface, image: &ImageScales<'_>, border: &Border, soft: f64) {
+/// tissue ahead is background: in CT (`soft`, the soft tissue's HU) darker than the soft
+/// tissue, otherwise below the window (see the module's comment). The same result for any
+/// thread count.
+pub(super) fn settle(
+    surface: &mut Surface,
+    image: &ImageScales<'_>,
+    border: &Border,
+    soft: Option<f64>,
+) {
     let normals = surface.vertex_normals();
     let live: Vec<u32> = surface.live_vertices().collect();
     let (positions, states) = (surface.positions(), surface.states());
@@ -56,7 +71,7 @@ pub(super) fn settle(surface: &mut Surface, image: &ImageScales<'_>, border: &Bo
 fn settled(
     image: &ImageScales<'_>,
     border: &Border,
-    soft: f64,
+    soft: Option<f64>,
     x: DVec3,
     n: DVec3,
 ) -> Option<DVec3> {
@@ -67,13 +82,21 @@ fn settled(
     let half_voxel = 0.5 * border.voxel;
     let mid = |k: f64| image.mid.sample_world(x + k * half_voxel * n);
     // As far behind and ahead as a local step's two levels are read: a blurred edge's ramp.
+    let peak = |k: f64| match soft {
+        Some(_) => mid(k),
+        None => image.fine.sample_world(x + k * half_voxel * n),
+    };
     let inside = (0..=STEP_SAMPLES)
-        .filter_map(|k| mid(-(k as f64)))
+        .filter_map(|k| peak(-(k as f64)))
         .fold(f64::NEG_INFINITY, f64::max);
     let ahead = (1..=STEP_SAMPLES)
         .filter_map(|k| mid(k as f64))
         .fold(f64::INFINITY, f64::min);
-    if ahead >= soft - DARKER_THAN_SOFT * (window.reference - soft) {
+    let dark = match soft {
+        Some(soft) => soft - DARKER_THAN_SOFT * (window.reference - soft),
+        None => window.lower,
+    };
+    if ahead >= dark {
         return None;
     }
     let level = 0.5 * (inside + ahead);
@@ -102,11 +125,11 @@ mod tests {
     use crate::geometry::Geometry;
     use crate::volume::{Image, VoxelBuffer};
 
-    /// A contrast-filled structure at 200 HU for x < 12 against `outside` beyond (1 mm voxels).
-    fn edge(outside: f64) -> Image {
+    /// A structure at `inside` for x < 12 against `outside` beyond (1 mm voxels).
+    fn edge(inside: f64, outside: f64) -> Image {
         let n = 24;
         let values = (0..n * n * n)
-            .map(|i| if i % n < 12 { 200.0 } else { outside })
+            .map(|i| if i % n < 12 { inside } else { outside })
             .collect();
         Image::new(VoxelBuffer::F64(values), [n, n, n], Geometry::identity()).unwrap()
     }
@@ -141,11 +164,11 @@ mod tests {
 
     #[test]
     fn against_fat_a_vertex_stopped_at_the_lower_end_settles_on_the_half_level() {
-        let fat = edge(-100.0);
+        let fat = edge(200.0, -100.0);
         let image = ImageScales::new(fat.view());
         let stop = crossing(&image, 120.0);
         let x = DVec3::new(stop, 12.0, 12.0);
-        let settled = settled(&image, &border(), 40.0, x, DVec3::X).expect("fat ahead");
+        let settled = settled(&image, &border(), Some(40.0), x, DVec3::X).expect("fat ahead");
         // Half-way between the structure and the fat: 50 HU, further out.
         let half = crossing(&image, 50.0);
         assert!(
@@ -157,13 +180,45 @@ mod tests {
 
     #[test]
     fn against_soft_tissue_the_lower_end_stays_the_border() {
-        let muscle = edge(40.0);
+        let muscle = edge(200.0, 40.0);
         let image = ImageScales::new(muscle.view());
         let x = DVec3::new(crossing(&image, 120.0), 12.0, 12.0);
-        assert_eq!(settled(&image, &border(), 40.0, x, DVec3::X), None);
+        assert_eq!(settled(&image, &border(), Some(40.0), x, DVec3::X), None);
         // A vertex without a normal does not move either.
-        let fat = edge(-100.0);
+        let fat = edge(200.0, -100.0);
         let image = ImageScales::new(fat.view());
-        assert_eq!(settled(&image, &border(), 40.0, x, DVec3::ZERO), None);
+        assert_eq!(settled(&image, &border(), Some(40.0), x, DVec3::ZERO), None);
+    }
+
+    /// An MR window around 300 whose lower end, 200, is half-way to a background at 100.
+    fn mr_border() -> Border {
+        Border {
+            window: IntensityWindow::new(300.0, 200.0, f64::INFINITY),
+            ..border()
+        }
+    }
+
+    #[test]
+    fn in_mr_a_vessel_dimmer_than_at_the_seed_settles_on_its_own_half_level() {
+        // The vessel has drifted to 260 against a background of 60: its edge is at 160, below
+        // the lower end drawn from the seed's contrast.
+        let dim = edge(260.0, 60.0);
+        let image = ImageScales::new(dim.view());
+        let stop = crossing(&image, 200.0);
+        let x = DVec3::new(stop, 12.0, 12.0);
+        let settled = settled(&image, &mr_border(), None, x, DVec3::X).expect("background ahead");
+        let half = crossing(&image, 160.0);
+        assert!(
+            settled.x > stop && (settled.x - half).abs() < 0.02,
+            "{settled}"
+        );
+    }
+
+    #[test]
+    fn in_mr_tissue_inside_the_window_ahead_is_not_background() {
+        let neighbour = edge(260.0, 220.0);
+        let image = ImageScales::new(neighbour.view());
+        let x = DVec3::new(crossing(&image, 240.0), 12.0, 12.0);
+        assert_eq!(settled(&image, &mr_border(), None, x, DVec3::X), None);
     }
 }
