@@ -9,7 +9,8 @@
 //! volumes, the seconds of the segmentation, and the error of a failed run — then a summary per
 //! family: a variant passes when it is valid, has the right genus and a Dice of at least 0.95;
 //! the median Dice counts a failed run as 0. `--save DIR` writes each variant's volume
-//! (`FAMILY-N.nii.gz`), mesh (`FAMILY-N.vtp`) and row with its drawn parameters
+//! (`FAMILY-N.nii.gz`), the truth's signed distance on its grid (`FAMILY-N-truth.nii.gz`, mm,
+//! negative inside), mesh (`FAMILY-N.vtp`) and row with its drawn parameters
 //! (`FAMILY-N.json`).
 
 use std::path::{Path, PathBuf};
@@ -19,7 +20,8 @@ use balloonseg::balloon::{BalloonParams, Segmenter};
 use balloonseg::evaluation::overlap_with_shape;
 use balloonseg::phantom::{Family, Variant};
 use balloonseg::self_intersection::self_intersections;
-use balloonseg::{io, mesh_checks, Error, Result, TriMesh};
+use balloonseg::{io, mesh_checks, Error, Image, Result, TriMesh, VoxelBuffer};
+use glam::DVec3;
 use serde_json::{json, Map, Value};
 
 /// A variant passes from this Dice on (with a valid mesh of the right genus).
@@ -214,6 +216,10 @@ fn sweep_one(family: Family, number: u64, options: &Options) -> Result<Row> {
     let mesh_and_scores = segment(&variant, options.threads);
     if let Some(dir) = &options.save {
         io::write_image(&dir.join(format!("{stem}.nii.gz")), &variant.image)?;
+        io::write_image(
+            &dir.join(format!("{stem}-truth.nii.gz")),
+            &truth_map(&variant)?,
+        )?;
         if let Ok((mesh, _)) = &mesh_and_scores {
             io::write_mesh(&dir.join(format!("{stem}.vtp")), mesh, &[])?;
         }
@@ -230,6 +236,20 @@ fn sweep_one(family: Family, number: u64, options: &Options) -> Result<Row> {
         )?;
     }
     Ok(row)
+}
+
+/// The truth's signed distance (mm, negative inside) at the variant's voxel centres, for
+/// comparing a segmentation with it voxel by voxel or drawing its zero isosurface.
+fn truth_map(variant: &Variant) -> Result<Image> {
+    let (dims, geometry) = (variant.image.dims(), *variant.image.geometry());
+    let values = (0..dims[2])
+        .flat_map(|k| (0..dims[1]).flat_map(move |j| (0..dims[0]).map(move |i| [i, j, k])))
+        .map(|[i, j, k]| {
+            let index = DVec3::new(i as f64, j as f64, k as f64);
+            variant.truth(geometry.index_to_world(index)) as f32
+        })
+        .collect();
+    Image::new(VoxelBuffer::F32(values), dims, geometry)
 }
 
 fn segment(variant: &Variant, threads: usize) -> Result<(TriMesh, Scores)> {
