@@ -80,17 +80,18 @@ fn settled(
         return None;
     }
     let half_voxel = 0.5 * border.voxel;
-    let mid = |k: f64| image.mid.sample_world(x + k * half_voxel * n);
-    // As far behind and ahead as a local step's two levels are read: a blurred edge's ramp.
-    let peak = |k: f64| match soft {
-        Some(_) => mid(k),
-        None => image.fine.sample_world(x + k * half_voxel * n),
+    let structure = if soft.is_some() {
+        &image.mid
+    } else {
+        &image.fine
     };
+    let along = |k: f64| x + k * half_voxel * n;
+    // As far behind and ahead as a local step's two levels are read: a blurred edge's ramp.
     let inside = (0..=STEP_SAMPLES)
-        .filter_map(|k| peak(-(k as f64)))
+        .filter_map(|k| structure.sample_world(along(-(k as f64))))
         .fold(f64::NEG_INFINITY, f64::max);
     let ahead = (1..=STEP_SAMPLES)
-        .filter_map(|k| mid(k as f64))
+        .filter_map(|k| image.mid.sample_world(along(k as f64)))
         .fold(f64::INFINITY, f64::min);
     let dark = match soft {
         Some(soft) => soft - DARKER_THAN_SOFT * (window.reference - soft),
