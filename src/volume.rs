@@ -484,6 +484,14 @@ pub struct Image {
 }
 
 impl Image {
+    /// A test volume: intensity `profile(x)` along x on an `n`³ grid of 1 mm voxels, the same
+    /// across y and z.
+    #[cfg(test)]
+    pub(crate) fn along_x(n: usize, profile: impl Fn(f64) -> f64) -> Image {
+        let values = (0..n * n * n).map(|i| profile((i % n) as f64)).collect();
+        Image::new(VoxelBuffer::F64(values), [n, n, n], Geometry::identity()).unwrap()
+    }
+
     pub fn new(buffer: VoxelBuffer, dims: [usize; 3], geometry: Geometry) -> Result<Self> {
         let expected = dims.iter().try_fold(1usize, |a, &d| a.checked_mul(d));
         if expected != Some(buffer.len()) || buffer.is_empty() {

@@ -388,8 +388,7 @@ impl Border {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Geometry;
-    use crate::volume::{Image, VoxelBuffer};
+    use crate::volume::Image;
 
     #[test]
     fn inflation_slows_towards_the_border_and_reverses_beyond() {
@@ -403,13 +402,7 @@ mod tests {
 
     /// Intensity falling along x: from 1000 by `slope` per voxel (1 mm).
     fn ramp(slope: f64) -> Image {
-        along_x(40, |x| 1000.0 - slope * x)
-    }
-
-    /// Intensity along x by `profile(x)` on an `n`³ grid of 1 mm voxels.
-    fn along_x(n: usize, profile: impl Fn(f64) -> f64) -> Image {
-        let values = (0..n * n * n).map(|i| profile((i % n) as f64)).collect();
-        Image::new(VoxelBuffer::F64(values), [n, n, n], Geometry::identity()).unwrap()
+        Image::along_x(40, |x| 1000.0 - slope * x)
     }
 
     #[test]
@@ -446,7 +439,7 @@ mod tests {
 
     /// Intensity along x: `levels` on `[0, 8)`, `[8, 10)` and from 10 on (1 mm voxels).
     fn bands(levels: [f64; 3]) -> Image {
-        along_x(24, |x| match x {
+        Image::along_x(24, |x| match x {
             x if x < 8.0 => levels[0],
             x if x < 10.0 => levels[1],
             _ => levels[2],
@@ -459,7 +452,7 @@ mod tests {
         // A structure at 1000 with a wall of tissue at 100 from x = 11.7 to 12.3 (0.6 voxel, as
         // partial volume leaves it: a dip of about 215 on the scale of local steps), and more
         // of the structure beyond; a step is 400, under half the contrast.
-        let wall = along_x(24, |x| {
+        let wall = Image::along_x(24, |x| {
             let covered = ((x + 0.5).min(12.3) - (x - 0.5).max(11.7)).max(0.0);
             1000.0 - 900.0 * covered
         });
@@ -489,7 +482,7 @@ mod tests {
         };
         assert_eq!(steps_only.step_ahead(&image, x, target), None);
         // The same fall with nothing beyond it (one edge, not two) is no edge either.
-        let fall = along_x(24, |x| {
+        let fall = Image::along_x(24, |x| {
             let covered = ((x + 0.5).min(23.0) - (x - 0.5).max(11.7)).clamp(0.0, 1.0);
             1000.0 - 300.0 * covered
         });

@@ -123,16 +123,11 @@ fn settled(
 mod tests {
     use super::*;
     use crate::balloon::border::IntensityWindow;
-    use crate::geometry::Geometry;
-    use crate::volume::{Image, VoxelBuffer};
+    use crate::volume::Image;
 
     /// A structure at `inside` for x < 12 against `outside` beyond (1 mm voxels).
     fn edge(inside: f64, outside: f64) -> Image {
-        let n = 24;
-        let values = (0..n * n * n)
-            .map(|i| if i % n < 12 { inside } else { outside })
-            .collect();
-        Image::new(VoxelBuffer::F64(values), [n, n, n], Geometry::identity()).unwrap()
+        Image::along_x(24, |x| if x < 12.0 { inside } else { outside })
     }
 
     /// The window of a 200 HU structure in CT with soft tissue at 40: its lower end half-way

@@ -130,15 +130,7 @@ fn parabolic_peak(before: f64, middle: f64, after: f64) -> f64 {
 mod tests {
     use super::*;
     use crate::balloon::border::IntensityWindow;
-    use crate::geometry::Geometry;
-    use crate::volume::{Image, VoxelBuffer};
-
-    /// Intensity along x by `profile(x)` (1 mm voxels, 32 wide).
-    fn along_x(profile: impl Fn(f64) -> f64) -> Image {
-        let n = 32;
-        let values = (0..n * n * n).map(|i| profile((i % n) as f64)).collect();
-        Image::new(VoxelBuffer::F64(values), [n, n, n], Geometry::identity()).unwrap()
-    }
+    use crate::volume::Image;
 
     fn border() -> Border {
         Border {
@@ -154,7 +146,7 @@ mod tests {
     /// A lumen at 300 up to x = 16, tissue at 40 beyond, and a Gaussian ridge of `height` and
     /// σ `width` centred at x = 16 (a blurred wire on the wall).
     fn wall_with_wire(height: f64, width: f64) -> Image {
-        along_x(|x| {
+        Image::along_x(32, |x| {
             let wall = 40.0 + 260.0 * smooth_step(16.0 - x);
             wall + height * (-0.5 * ((x - 16.0) / width).powi(2)).exp()
         })
@@ -185,7 +177,7 @@ mod tests {
         let border = border();
         let at = |x: f64| DVec3::new(x, 16.0, 16.0);
         // Bone: bright from x = 16 on, for far more than the reach.
-        let bone = along_x(|x| 300.0 + 600.0 * smooth_step(x - 16.0));
+        let bone = Image::along_x(32, |x| 300.0 + 600.0 * smooth_step(x - 16.0));
         let image = ImageScales::new(bone.view());
         assert_eq!(
             border.thin_layer_crest(&image, at(15.4), DVec3::X, 2.0),
@@ -203,7 +195,9 @@ mod tests {
     #[test]
     fn a_thin_vessel_seen_across_is_no_thin_layer() {
         // A vessel 3 voxels wide at 400 on tissue at 40: its crest has its far wall behind it.
-        let vessel = along_x(|x| 40.0 + 360.0 * (-0.5 * ((x - 16.0) / 1.2).powi(2)).exp());
+        let vessel = Image::along_x(32, |x| {
+            40.0 + 360.0 * (-0.5 * ((x - 16.0) / 1.2).powi(2)).exp()
+        });
         let image = ImageScales::new(vessel.view());
         let border = Border {
             window: IntensityWindow::new(400.0, 220.0, f64::INFINITY),
