@@ -169,6 +169,11 @@ impl<'v> ImageScales<'v> {
         self.excluded.extend(voxels);
     }
 
+    /// The voxels excluded so far (indices of the volume's grid).
+    pub fn excluded(&self) -> &HashSet<[i64; 3], FastHash> {
+        &self.excluded
+    }
+
     /// Whether the voxel nearest to `x` (world mm) was excluded.
     fn is_excluded(&self, x: DVec3) -> bool {
         if self.excluded.is_empty() {

@@ -701,10 +701,10 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         let (mesh, _) = self.mesh();
         let geometry = *self.volume.geometry();
         let radius = TOUCHING_EDGE_LENGTHS * self.edge_length;
-        let seeds = &self.seeds;
+        let (seeds, earlier) = (&self.seeds, self.image.excluded());
         if let Some(cut) = self
             .pool
-            .install(|| cut_touching(&mesh, &geometry, seeds, radius))?
+            .install(|| cut_touching(&mesh, &geometry, seeds, radius, earlier))?
         {
             self.image.exclude(cut.removed);
             let mut surface = Surface::from_mesh(&cut.mesh)?;

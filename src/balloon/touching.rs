@@ -19,7 +19,7 @@
 //! root of a branch). The basins joined to a seed's basin through such contacts are kept, the
 //! rest is cut off.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use glam::{DMat3, DVec3};
 
@@ -59,6 +59,10 @@ const SIDE_REACH: f64 = 3.0;
 /// radii of the contact, about 3; a branch leaving the contact, under 1.
 const SIDE_ELONGATION: f64 = 2.0;
 
+/// The radius (voxels) of the closing that fills the seam between the voxels earlier cuts took
+/// and the balloon stopped against them (see [`cut_touching`]).
+const SEAM_VOXELS: f64 = 2.0;
+
 /// What [`cut_touching`] cut off.
 pub(crate) struct Cut {
     /// The balloon without it.
@@ -71,11 +75,20 @@ pub(crate) struct Cut {
 /// or a neck from the seeds' structure (see the module's comment), on the grid of
 /// `geometry`, with basins at least `radius` mm thick to be parts of their own. `None` when
 /// nothing is cut.
+///
+/// A structure cut off while the balloon was half-way along its contact is entered again
+/// further along, and what is then entered is only the rest of it: a stub that meets the
+/// seeds' structure across a short, round contact, as a branch does. So the basins are also
+/// found with the voxels `earlier` cuts took (indices of `geometry`'s grid) as part of the
+/// balloon, the seam between them closed: a basin without a seed that lies mostly in one of these that holds some of them
+/// and that the rules above cut off is that structure again, and is cut off too — unless all
+/// that is cut is a sliver smaller than a ball of `radius`.
 pub(crate) fn cut_touching(
     mesh: &TriMesh,
     geometry: &Geometry,
     seeds: &[DVec3],
     radius: f64,
+    earlier: &HashSet<[i64; 3], FastHash>,
 ) -> Result<Option<Cut>> {
     // An isotropic grid of the smallest spacing: on a grid of 1.5 mm slices the depths would
     // be off by up to 0.75 mm, as much as the waist between two touching tubes.
@@ -84,39 +97,60 @@ pub(crate) fn cut_touching(
     let (grid, dims) = covering_grid(mesh, &isotropic, 2.0)?;
     let spacing = grid.spacing();
     let inside = inside_mask(mesh, dims, &grid)?;
-    let depth = morphology::distance_to_outside(&inside, dims, spacing);
-    let (lobes, thickness) = watershed(&depth, dims, radius, voxel);
-    if thickness.len() < 2 {
-        return Ok(None);
-    }
-    // Each basin's core, the part deeper than its waists could be, grown back over the inside
-    // along shortest paths: the flood's order does not decide where two basins meet.
-    let cores: Vec<u32> = lobes
-        .iter()
-        .zip(&depth)
-        .map(|(&l, &d)| {
-            if l != u32::MAX && d >= SPLIT * thickness[l as usize] {
-                l
-            } else {
-                u32::MAX
-            }
-        })
-        .collect();
-    let basins = nearest_cores(&inside, &cores, dims);
-    let seed_basins: Vec<u32> = seeds
+    let seed_voxels: Vec<usize> = seeds
         .iter()
         .filter_map(|&s| voxel_of(grid.world_to_index(s), dims))
-        .map(|n| basins[n])
-        .filter(|&b| b != u32::MAX)
         .collect();
-    if seed_basins.is_empty() {
-        // The seeds lie in parts too thin for a core of their own: nothing to compare with.
-        return Ok(None);
+    let mut cut = vec![false; inside.len()];
+    let (basins, thickness) = find_basins(&inside, dims, spacing, radius);
+    let seed_basins = basins_of(&basins, &seed_voxels);
+    // With one basin, or the seeds in parts too thin for a core of their own, there is nothing
+    // to compare.
+    if thickness.len() >= 2 && !seed_basins.is_empty() {
+        let kept = joined_through_round_contacts(&basins, &thickness, &seed_basins, dims, &grid);
+        for (c, &b) in cut.iter_mut().zip(&basins) {
+            *c = b != u32::MAX && !kept[b as usize];
+        }
     }
-    let kept = joined_through_round_contacts(&basins, &thickness, &seed_basins, dims, &grid);
-    let cut: Vec<usize> = (0..basins.len())
-        .filter(|&n| basins[n] != u32::MAX && !kept[basins[n] as usize])
-        .collect();
+    let voxel_volume: f64 = spacing.iter().product();
+    let volume = |cut: &[bool]| cut.iter().filter(|&&c| c).count() as f64 * voxel_volume;
+    let cut_now = volume(&cut);
+    if !earlier.is_empty() {
+        let mut taken = vec![false; inside.len()];
+        mark_voxels(&mut taken, dims, &grid, geometry, earlier);
+        // The balloon's front stopped at the cut rounded, and the groove it leaves along the
+        // seam would read as a waist between the cut part and the part entered again.
+        let mut seen: Vec<bool> = inside.iter().zip(&taken).map(|(&a, &b)| a || b).collect();
+        morphology::close(&mut seen, dims, spacing, SEAM_VOXELS * voxel);
+        let (whole, whole_thickness) = find_basins(&seen, dims, spacing, radius);
+        let seeded = basins_of(&whole, &seed_voxels);
+        let whole_kept =
+            joined_through_round_contacts(&whole, &whole_thickness, &seeded, dims, &grid);
+        let mut again = vec![false; whole_thickness.len()];
+        for (&w, _) in whole
+            .iter()
+            .zip(&taken)
+            .filter(|(&w, &t)| t && w != u32::MAX)
+        {
+            again[w as usize] = !whole_kept[w as usize];
+        }
+        // Each basin of the balloon's own without a seed is cut with the structure seen whole
+        // that most of it lies in.
+        let mut share = vec![(0usize, 0usize); thickness.len()];
+        for (&b, &w) in basins.iter().zip(&whole).filter(|(&b, _)| b != u32::MAX) {
+            share[b as usize].0 += usize::from(w != u32::MAX && again[w as usize]);
+            share[b as usize].1 += 1;
+        }
+        let before = cut.clone();
+        for (c, &b) in cut.iter_mut().zip(&basins).filter(|(_, &b)| b != u32::MAX) {
+            let (in_cut, all) = share[b as usize];
+            *c |= !seed_basins.contains(&b) && 2 * in_cut > all;
+        }
+        if cut_now == 0.0 && volume(&cut) < 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3) {
+            cut = before;
+        }
+    }
+    let cut: Vec<usize> = (0..cut.len()).filter(|&n| cut[n]).collect();
     if cut.is_empty() {
         return Ok(None);
     }
@@ -141,11 +175,90 @@ pub(crate) fn cut_touching(
         field[n] = outside;
     }
     keep_seeded_components(&mut field, dims, &grid, seeds);
-    let voxel_volume: f64 = spacing.iter().product();
     Ok(Some(Cut {
         mesh: without_cavities(isosurface(field, dims, &grid, 0.0)?, voxel_volume),
         removed,
     }))
+}
+
+/// The basins of `mask`'s thick parts (see the module's comment): a label per voxel
+/// (`u32::MAX` outside and in parts too thin for a core) and each basin's thickness, with basins
+/// at least `radius` mm thick to be parts of their own.
+fn find_basins(
+    mask: &[bool],
+    dims: [usize; 3],
+    spacing: [f64; 3],
+    radius: f64,
+) -> (Vec<u32>, Vec<f64>) {
+    let depth = morphology::distance_to_outside(mask, dims, spacing);
+    let (lobes, thickness) = watershed(&depth, dims, radius, spacing[0]);
+    // Each basin's core, the part deeper than its waists could be, grown back over the inside
+    // along shortest paths: the flood's order does not decide where two basins meet.
+    let cores: Vec<u32> = lobes
+        .iter()
+        .zip(&depth)
+        .map(|(&l, &d)| {
+            if l != u32::MAX && d >= SPLIT * thickness[l as usize] {
+                l
+            } else {
+                u32::MAX
+            }
+        })
+        .collect();
+    (nearest_cores(mask, &cores, dims), thickness)
+}
+
+/// The basins of `voxels`, those in one.
+fn basins_of(basins: &[u32], voxels: &[usize]) -> Vec<u32> {
+    voxels
+        .iter()
+        .map(|&n| basins[n])
+        .filter(|&b| b != u32::MAX)
+        .collect()
+}
+
+/// Marks in `mask` (on `grid`, `dims`) the voxels whose nearest voxel of `geometry`'s grid is
+/// one of `voxels`; those beyond `grid` are left out.
+fn mark_voxels(
+    mask: &mut [bool],
+    dims: [usize; 3],
+    grid: &Geometry,
+    geometry: &Geometry,
+    voxels: &HashSet<[i64; 3], FastHash>,
+) {
+    for &v in voxels {
+        let centre = DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
+        // The grid's voxels within the box of `v`'s corners.
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for corner in 0..8 {
+            let offset = DVec3::new(
+                (corner & 1) as f64 - 0.5,
+                ((corner >> 1) & 1) as f64 - 0.5,
+                ((corner >> 2) & 1) as f64 - 0.5,
+            );
+            let p = grid.world_to_index(geometry.index_to_world(centre + offset));
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        if (0..3).any(|a| hi[a] < 0.0 || lo[a] > dims[a] as f64 - 1.0) {
+            continue;
+        }
+        let range = |a: usize| {
+            lo[a].floor().max(0.0) as usize..=hi[a].ceil().min(dims[a] as f64 - 1.0) as usize
+        };
+        for k in range(2) {
+            for j in range(1) {
+                for i in range(0) {
+                    let p = DVec3::new(i as f64, j as f64, k as f64);
+                    let nearest = geometry.world_to_index(grid.index_to_world(p)).round();
+                    if [nearest.x as i64, nearest.y as i64, nearest.z as i64] == v {
+                        mask[i + dims[0] * (j + dims[1] * k)] = true;
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// The voxel nearest the continuous index `p`, if it is on the grid.
@@ -540,8 +653,12 @@ mod tests {
                 (DVec3::new(q.x, q.y, 0.0)).length() - r + (q.z.abs() - 18.0).max(0.0)
             }
         };
-        let g = Geometry::with_spacing([0.8, 0.8, 1.5], [-14.0, -10.0, -24.0]).unwrap();
-        let dims = [36, 26, 33];
+        zero_level(sdf, [-14.0, -10.0, -24.0], [36, 26, 33])
+    }
+
+    /// The zero level of `sdf` (world mm) on a grid of 0.8 × 0.8 × 1.5 mm voxels from `origin`.
+    fn zero_level(sdf: impl Fn(DVec3) -> f64, origin: [f64; 3], dims: [usize; 3]) -> TriMesh {
+        let g = Geometry::with_spacing([0.8, 0.8, 1.5], origin).unwrap();
         let mut values = Vec::new();
         for k in 0..dims[2] {
             for j in 0..dims[1] {
@@ -561,7 +678,7 @@ mod tests {
         let g = Geometry::with_spacing([0.8, 0.8, 1.5], [0.0; 3]).unwrap();
         let tubes = capsules(true);
         let seed = DVec3::new(-4.0, 0.0, 0.0);
-        let cut = cut_touching(&tubes, &g, &[seed], 2.6)
+        let cut = cut_touching(&tubes, &g, &[seed], 2.6, &HashSet::default())
             .unwrap()
             .expect("a cut")
             .mesh;
@@ -581,15 +698,69 @@ mod tests {
         );
 
         let narrowing = capsules(false);
+        assert!(cut_touching(
+            &narrowing,
+            &g,
+            &[DVec3::new(0.0, 0.0, -10.0)],
+            2.6,
+            &HashSet::default()
+        )
+        .unwrap()
+        .is_none());
+        let sphere = icosphere(DVec3::ZERO, 6.0, 4);
         assert!(
-            cut_touching(&narrowing, &g, &[DVec3::new(0.0, 0.0, -10.0)], 2.6)
+            cut_touching(&sphere, &g, &[DVec3::ZERO], 2.6, &HashSet::default())
                 .unwrap()
                 .is_none()
         );
-        let sphere = icosphere(DVec3::ZERO, 6.0, 4);
-        assert!(cut_touching(&sphere, &g, &[DVec3::ZERO], 2.6)
+    }
+
+    /// Regression: a tube cut off as touching while the balloon was half-way along it was
+    /// entered again beyond the cut, and that stub, meeting the seeded tube across a short
+    /// round contact, was kept as a branch (touching-pair variants 25, 35 and 45).
+    #[test]
+    fn a_structure_cut_off_earlier_and_entered_again_is_cut_off_again() {
+        let g = Geometry::with_spacing([0.8, 0.8, 1.5], [0.0; 3]).unwrap();
+        let capsule = |p: DVec3, x: f64, z0: f64, z1: f64| {
+            (p - DVec3::new(x, 0.0, p.z.clamp(z0, z1))).length() - 4.0
+        };
+        // The seeded tube, and what the balloon took again of the second one: its end beyond
+        // z = 10, which overlaps the seeded tube by 1.5 mm.
+        let balloon = zero_level(
+            |p| capsule(p, -4.0, -14.0, 14.0).min(capsule(p, 4.5, -14.0, 14.0).max(10.0 - p.z)),
+            [-10.0, -6.0, -20.0],
+            [26, 16, 28],
+        );
+        let seed = DVec3::new(-4.0, 0.0, 0.0);
+        let nothing_earlier = HashSet::default();
+        assert!(
+            cut_touching(&balloon, &g, &[seed], 2.6, &nothing_earlier)
+                .unwrap()
+                .is_none(),
+            "on its own, the stub is a branch"
+        );
+        // The earlier cut took the second tube below z = 10.
+        let mut earlier: HashSet<[i64; 3], FastHash> = HashSet::default();
+        for k in -14..=7 {
+            for j in -6..=6 {
+                for i in 0..=11 {
+                    let p = g.index_to_world(DVec3::new(i as f64, j as f64, k as f64));
+                    if capsule(p, 4.5, -14.0, 14.0) <= 0.0 && p.z < 10.0 {
+                        earlier.insert([i, j, k]);
+                    }
+                }
+            }
+        }
+        let cut = cut_touching(&balloon, &g, &[seed], 2.6, &earlier)
             .unwrap()
-            .is_none());
+            .expect("the stub cut off")
+            .mesh;
+        let report = crate::mesh_checks::check(&cut);
+        assert!(report.is_valid_closed_surface(), "{report:?}");
+        assert!(
+            cut.points().iter().all(|p| p.x < 1.5),
+            "nothing of the second tube"
+        );
     }
 
     #[test]
@@ -597,6 +768,8 @@ mod tests {
         let g = Geometry::with_spacing([0.8, 0.8, 1.5], [0.0; 3]).unwrap();
         let tubes = capsules(true);
         let far = DVec3::new(0.0, 30.0, 0.0);
-        assert!(cut_touching(&tubes, &g, &[far], 2.6).unwrap().is_none());
+        assert!(cut_touching(&tubes, &g, &[far], 2.6, &HashSet::default())
+            .unwrap()
+            .is_none());
     }
 }
