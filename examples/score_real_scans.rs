@@ -1,4 +1,5 @@
-//! The balloon on the real scans (`BALLOONSEG_DATA`), scored as `tests/real_scans.rs` scores it:
+//! The balloon on the real scans (`BALLOONSEG_DATA`), scored as `tests/real_scans.rs` and
+//! `tests/newer_real_scans.rs` score it:
 //! for the aorta, Dice, mean symmetric surface distance (between the surfaces and between voxel
 //! masks) and HD95 against vmtk's reference inside its rows y = 89…176; for the carotid,
 //! validity, components, genus, steps and seconds; for every seed of the newer scans
@@ -6,19 +7,23 @@
 //! what it misses of the data README's expectation.
 //!
 //! `score_real_scans [aorta|carotid|cases|CASE...] [--reference R] [--tolerance T]
-//! [--threads N] [--step-fraction F] [--max-reparametrizations N] [--save DIR]` (all of them
-//! without a name) prints one JSON line per scan (and with `--save`, writes `DIR/NAME.vtp`); for
-//! trying parameters and estimators against the numbers BENCHMARKS.md quotes.
+//! [--threads N] [--step-fraction F] [--max-reparametrizations N] [--save DIR]
+//! [--pictures DIR]` (all of them without a name) prints one JSON line per scan (and with
+//! `--save`, writes `DIR/NAME.vtp`; with `--pictures`, `DIR/NAME.png`: `balloonseg render`'s
+//! picture through the seed, windowed as `segment --png` windows it); for trying parameters and
+//! estimators against the numbers BENCHMARKS.md quotes, and for docs/real_scans.md.
 
 #[path = "../tests/support/real_scan_cases.rs"]
 mod real_scan_cases;
 
+use std::path::Path;
 use std::time::Instant;
 
 use balloonseg::balloon::{BalloonParams, Segmenter};
 use balloonseg::evaluation::{score_against_level_set, IndexBox, LevelSetScore};
+use balloonseg::render::{self, RenderOptions};
 use balloonseg::test_data::data_dir;
-use balloonseg::{io, mesh_checks, Error, Result};
+use balloonseg::{io, mesh_checks, Error, Image, Result, TriMesh};
 use glam::DVec3;
 
 fn main() {
@@ -33,6 +38,7 @@ fn run() -> Result<()> {
     let mut which: Vec<String> = Vec::new();
     let mut params = BalloonParams::default();
     let mut save = None;
+    let mut pictures = None;
     while let Some(arg) = args.next() {
         let mut value = |name: &str| -> Result<f64> {
             args.next()
@@ -48,12 +54,13 @@ fn run() -> Result<()> {
                 params.max_reparametrizations = value("--max-reparametrizations")? as u32
             }
             "--save" => save = args.next().map(std::path::PathBuf::from),
+            "--pictures" => pictures = args.next().map(std::path::PathBuf::from),
             name if !name.starts_with('-') => which.push(arg),
             other => {
                 return Err(Error::invalid_argument(format!(
                 "unknown argument {other}; usage: score_real_scans [aorta|carotid|cases|CASE...] \
                      [--reference R] [--tolerance T] [--threads N] [--step-fraction F] \
-                     [--max-reparametrizations N] [--save DIR]"
+                     [--max-reparametrizations N] [--save DIR] [--pictures DIR]"
             )))
             }
         }
@@ -69,6 +76,10 @@ fn run() -> Result<()> {
         let seconds = start.elapsed().as_secs_f64();
         if let Some(dir) = &save {
             io::write_mesh(&dir.join("aorta.vtp"), &mesh, &[])?;
+        }
+        if let Some(dir) = &pictures {
+            let window = segmenter.stats().display_window();
+            picture(&dir.join("aorta.png"), &image, &mesh, seed, window)?;
         }
         let level_set = io::read_image(&dir.join("vmtk-aorta/aorta-reference-levelset.mha"))?;
         let region = IndexBox {
@@ -108,12 +119,16 @@ fn run() -> Result<()> {
     if wanted("carotid") {
         let image = io::read_image(&dir.join("vtk-carotid/carotid.mha"))?;
         let start = Instant::now();
-        let mut segmenter =
-            Segmenter::new(image.view(), params.clone(), DVec3::new(117.0, 103.0, 9.0))?;
+        let seed = DVec3::new(117.0, 103.0, 9.0);
+        let mut segmenter = Segmenter::new(image.view(), params.clone(), seed)?;
         let (mesh, _) = segmenter.segment()?;
         let seconds = start.elapsed().as_secs_f64();
         if let Some(dir) = &save {
             io::write_mesh(&dir.join("carotid.vtp"), &mesh, &[])?;
+        }
+        if let Some(dir) = &pictures {
+            let window = segmenter.stats().display_window();
+            picture(&dir.join("carotid.png"), &image, &mesh, seed, window)?;
         }
         let report = mesh_checks::check(&mesh);
         let stats = segmenter.stats();
@@ -141,6 +156,15 @@ fn run() -> Result<()> {
                 if let Some(dir) = &save {
                     io::write_mesh(&dir.join(format!("{}.vtp", case.name)), &outcome.mesh, &[])?;
                 }
+                if let Some(dir) = &pictures {
+                    picture(
+                        &dir.join(format!("{}.png", case.name)),
+                        &outcome.image,
+                        &outcome.mesh,
+                        outcome.seed,
+                        outcome.display_window,
+                    )?;
+                }
                 serde_json::json!({
                     "case": case.name,
                     "valid": outcome.valid,
@@ -158,4 +182,27 @@ fn run() -> Result<()> {
         println!("{line}");
     }
     Ok(())
+}
+
+/// Each panel's side in `--pictures`: small enough for the repository, large enough to see a leak.
+const PICTURE_PANEL_PX: u32 = 300;
+
+/// `balloonseg render`'s picture of `mesh` over `image` through `seed`, with `window`.
+fn picture(
+    path: &Path,
+    image: &Image,
+    mesh: &TriMesh,
+    seed: DVec3,
+    window: (f64, f64),
+) -> Result<()> {
+    let options = RenderOptions {
+        centre: Some(seed),
+        window: Some(window),
+        panel_px: PICTURE_PANEL_PX,
+        ..RenderOptions::default()
+    };
+    render::write_png(
+        path,
+        &render::render_overview(&image.view(), Some(mesh), &options)?,
+    )
 }

@@ -186,6 +186,18 @@ pub struct SegmentationStats {
     pub seconds: PhaseSeconds,
 }
 
+impl SegmentationStats {
+    /// The display window (lo, hi) of a picture of the result, from the model of a bright
+    /// structure: its intensity window below the reference, and as much again below for the
+    /// surroundings.
+    pub fn display_window(&self) -> (f64, f64) {
+        (
+            self.reference_intensity - 2.0 * self.tolerance,
+            self.reference_intensity + self.tolerance,
+        )
+    }
+}
+
 /// A balloon in a volume.
 pub struct Segmenter<'v, 'p> {
     volume: Volume<'v>,

@@ -8,7 +8,7 @@ use std::time::Instant;
 use balloonseg::balloon::{BalloonParams, Segmenter};
 use balloonseg::evaluation::Overlap;
 use balloonseg::winding_number::inside_mask;
-use balloonseg::{io, mesh_checks, Result};
+use balloonseg::{io, mesh_checks, Image, Result};
 use glam::DVec3;
 
 /// One seed of one scan and the README's expectation for it.
@@ -162,6 +162,10 @@ pub struct Outcome {
     pub window: String,
     pub seconds: f64,
     pub mesh: balloonseg::TriMesh,
+    /// The scan, the seed (world mm) and the display window of a picture of the result.
+    pub image: Image,
+    pub seed: DVec3,
+    pub display_window: (f64, f64),
 }
 
 impl Outcome {
@@ -202,6 +206,7 @@ pub fn run(case: &Case, data: &Path, params: BalloonParams) -> Result<Outcome> {
     let mut segmenter = Segmenter::new(image.view(), params, seed)?;
     let (mesh, _) = segmenter.segment()?;
     let seconds = start.elapsed().as_secs_f64();
+    let stats = segmenter.stats().clone();
     let report = mesh_checks::check(&mesh);
     let dice = match case.dice_against {
         Some((label, _)) => {
@@ -231,8 +236,11 @@ pub fn run(case: &Case, data: &Path, params: BalloonParams) -> Result<Outcome> {
         genus: report.genus(),
         volume_cm3: report.signed_volume / 1000.0,
         dice,
-        window: segmenter.stats().window.to_string(),
+        window: stats.window.to_string(),
         seconds,
         mesh,
+        display_window: stats.display_window(),
+        image,
+        seed,
     })
 }

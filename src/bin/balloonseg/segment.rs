@@ -154,7 +154,7 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
     if let Some(path) = &args.png {
         let options = RenderOptions {
             centre: Some(seeds[0]),
-            window: Some(display_window(segmenter.stats())),
+            window: Some(segmenter.stats().display_window()),
             ..RenderOptions::default()
         };
         render::write_png(
@@ -170,15 +170,6 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
         mesh.triangles().len()
     );
     Ok(ExitCode::SUCCESS)
-}
-
-/// The display window of the picture, from the segmentation's model of a bright structure:
-/// its intensity window below the reference, and as much again below for the surroundings.
-fn display_window(stats: &SegmentationStats) -> (f64, f64) {
-    (
-        stats.reference_intensity - 2.0 * stats.tolerance,
-        stats.reference_intensity + stats.tolerance,
-    )
 }
 
 fn draw_progress(fraction: f64, phase: Phase) -> bool {
