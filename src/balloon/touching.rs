@@ -80,9 +80,9 @@ pub(crate) struct Cut {
 /// further along, and what is then entered is only the rest of it: a stub that meets the
 /// seeds' structure across a short, round contact, as a branch does. So the basins are also
 /// found with the voxels `earlier` cuts took (indices of `geometry`'s grid) as part of the
-/// balloon, the seam between them closed: a basin without a seed that lies mostly in one of these that holds some of them
-/// and that the rules above cut off is that structure again, and is cut off too — unless all
-/// that is cut is a sliver smaller than a ball of `radius`.
+/// balloon, the seam between them closed: a basin without a seed that lies mostly in one of
+/// these that holds some of them and that the rules above cut off is that structure again, and
+/// is cut off too — unless all that is cut is a sliver smaller than a ball of `radius`.
 pub(crate) fn cut_touching(
     mesh: &TriMesh,
     geometry: &Geometry,
@@ -114,40 +114,35 @@ pub(crate) fn cut_touching(
     }
     let voxel_volume: f64 = spacing.iter().product();
     let volume = |cut: &[bool]| cut.iter().filter(|&&c| c).count() as f64 * voxel_volume;
-    let cut_now = volume(&cut);
     if !earlier.is_empty() {
-        let mut taken = vec![false; inside.len()];
-        mark_voxels(&mut taken, dims, &grid, geometry, earlier);
-        // The balloon's front stopped at the cut rounded, and the groove it leaves along the
-        // seam would read as a waist between the cut part and the part entered again.
-        let mut seen: Vec<bool> = inside.iter().zip(&taken).map(|(&a, &b)| a || b).collect();
-        morphology::close(&mut seen, dims, spacing, SEAM_VOXELS * voxel);
-        let (whole, whole_thickness) = find_basins(&seen, dims, spacing, radius);
-        let seeded = basins_of(&whole, &seed_voxels);
-        let whole_kept =
-            joined_through_round_contacts(&whole, &whole_thickness, &seeded, dims, &grid);
-        let mut again = vec![false; whole_thickness.len()];
-        for (&w, _) in whole
-            .iter()
-            .zip(&taken)
-            .filter(|(&w, &t)| t && w != u32::MAX)
-        {
-            again[w as usize] = !whole_kept[w as usize];
-        }
-        // Each basin of the balloon's own without a seed is cut with the structure seen whole
+        let (whole, again) = structures_cut_before(
+            &inside,
+            earlier,
+            &seed_voxels,
+            radius,
+            dims,
+            &grid,
+            geometry,
+        );
+        // Each basin of the balloon's own without a seed goes with the structure seen whole
         // that most of it lies in.
         let mut share = vec![(0usize, 0usize); thickness.len()];
         for (&b, &w) in basins.iter().zip(&whole).filter(|(&b, _)| b != u32::MAX) {
             share[b as usize].0 += usize::from(w != u32::MAX && again[w as usize]);
             share[b as usize].1 += 1;
         }
-        let before = cut.clone();
-        for (c, &b) in cut.iter_mut().zip(&basins).filter(|(_, &b)| b != u32::MAX) {
+        let mut with_them = cut.clone();
+        for (c, &b) in with_them
+            .iter_mut()
+            .zip(&basins)
+            .filter(|(_, &b)| b != u32::MAX)
+        {
             let (in_cut, all) = share[b as usize];
             *c |= !seed_basins.contains(&b) && 2 * in_cut > all;
         }
-        if cut_now == 0.0 && volume(&cut) < 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3) {
-            cut = before;
+        let ball = 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3);
+        if volume(&cut) > 0.0 || volume(&with_them) >= ball {
+            cut = with_them;
         }
     }
     let cut: Vec<usize> = (0..cut.len()).filter(|&n| cut[n]).collect();
@@ -206,6 +201,40 @@ fn find_basins(
         })
         .collect();
     (nearest_cores(mask, &cores, dims), thickness)
+}
+
+/// The basins of the balloon's inside `inside` with the voxels `earlier` cuts took (indices of
+/// `geometry`'s grid) as part of it, their seam closed (see [`cut_touching`]), and for each
+/// whether it holds some of those voxels and is cut off by the module's rules from the basins
+/// of `seed_voxels`: the structures cut off before, seen whole.
+fn structures_cut_before(
+    inside: &[bool],
+    earlier: &HashSet<[i64; 3], FastHash>,
+    seed_voxels: &[usize],
+    radius: f64,
+    dims: [usize; 3],
+    grid: &Geometry,
+    geometry: &Geometry,
+) -> (Vec<u32>, Vec<bool>) {
+    let spacing = grid.spacing();
+    let mut taken = vec![false; inside.len()];
+    mark_voxels(&mut taken, dims, grid, geometry, earlier);
+    // The balloon's front stopped at the cut rounded, and the groove it leaves along the seam
+    // would read as a waist between the cut part and the part entered again.
+    let mut seen: Vec<bool> = inside.iter().zip(&taken).map(|(&a, &b)| a || b).collect();
+    morphology::close(&mut seen, dims, spacing, SEAM_VOXELS * spacing[0]);
+    let (whole, thickness) = find_basins(&seen, dims, spacing, radius);
+    let seeded = basins_of(&whole, seed_voxels);
+    let kept = joined_through_round_contacts(&whole, &thickness, &seeded, dims, grid);
+    let mut again = vec![false; thickness.len()];
+    for (&w, _) in whole
+        .iter()
+        .zip(&taken)
+        .filter(|(&w, &t)| t && w != u32::MAX)
+    {
+        again[w as usize] = !kept[w as usize];
+    }
+    (whole, again)
 }
 
 /// The basins of `voxels`, those in one.
