@@ -20,7 +20,7 @@ use balloonseg::balloon::{BalloonParams, Segmenter};
 use balloonseg::evaluation::overlap_with_shape;
 use balloonseg::phantom::{Family, Variant};
 use balloonseg::self_intersection::self_intersections;
-use balloonseg::{io, mesh_checks, Error, Image, Result, TriMesh, VoxelBuffer};
+use balloonseg::{io, mesh_checks, Error, Image, Result, TriMesh};
 use glam::DVec3;
 use serde_json::{json, Map, Value};
 
@@ -241,15 +241,11 @@ fn sweep_one(family: Family, number: u64, options: &Options) -> Result<Row> {
 /// The truth's signed distance (mm, negative inside) at the variant's voxel centres, for
 /// comparing a segmentation with it voxel by voxel or drawing its zero isosurface.
 fn truth_map(variant: &Variant) -> Result<Image> {
-    let (dims, geometry) = (variant.image.dims(), *variant.image.geometry());
-    let values = (0..dims[2])
-        .flat_map(|k| (0..dims[1]).flat_map(move |j| (0..dims[0]).map(move |i| [i, j, k])))
-        .map(|[i, j, k]| {
-            let index = DVec3::new(i as f64, j as f64, k as f64);
-            variant.truth(geometry.index_to_world(index)) as f32
-        })
-        .collect();
-    Image::new(VoxelBuffer::F32(values), dims, geometry)
+    let geometry = *variant.image.geometry();
+    Image::from_fn(variant.image.dims(), geometry, |i, j, k| {
+        let index = DVec3::new(i as f64, j as f64, k as f64);
+        variant.truth(geometry.index_to_world(index)) as f32
+    })
 }
 
 fn segment(variant: &Variant, threads: usize) -> Result<(TriMesh, Scores)> {
