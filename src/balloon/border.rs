@@ -304,7 +304,6 @@ impl Border {
         }
         let direction = (target - x).normalize_or_zero();
         let further = |a: f64, b: f64| if falling { a.min(b) } else { a.max(b) };
-        let nearer = |a: f64, b: f64| if falling { a.max(b) } else { a.min(b) };
         // Half a voxel apart, from the farthest behind `x` to the farthest ahead of `target`.
         let at = |from: DVec3, k: f64| mid.sample_world(from + (k * self.voxel / 2.0) * direction);
         let behind: Vec<f64> = (1..=STEP_SAMPLES)
@@ -316,14 +315,11 @@ impl Border {
             .into_iter()
             .chain((1..=STEP_SAMPLES).filter_map(|k| at(target, k as f64)))
             .collect();
-        // The structure behind is what of it lies in the window: across a thin vessel, the
-        // look behind may reach the darker tissue on its far side, which is no level to step
-        // up from.
-        let inside = behind
-            .iter()
-            .copied()
-            .filter(|&v| falling || self.window.contains(v))
-            .reduce(nearer)?;
+        let inside = if falling {
+            behind.iter().copied().reduce(f64::max)?
+        } else {
+            self.level_to_step_up_from(&behind)?
+        };
         let ahead_level = ahead.iter().copied().fold(there, further);
         // A step is steep: most of it within a few voxels. A bolus fading along a vessel
         // changes as much over the look's five voxels, but never that fast.
@@ -355,6 +351,25 @@ impl Border {
             .sample_world(target)
             .is_some_and(|v| step.crossed(v));
         (high_enough && steep && tightens && crossed).then_some(step)
+    }
+
+    /// The structure's level behind a vertex that may meet a step up: the median of the
+    /// samples `behind` it that lie in the window; `None` if none does. Across a thin vessel
+    /// the look behind reaches the darker tissue on its far side, out of the window, and the
+    /// partial-volume wall on the way, in it: measured from the darkest sample, a vessel that
+    /// brightens along its length (inflow in a TOF angiogram, a coil's sensitivity, a denser
+    /// bolus) met its own brighter core as a step and stopped short of closing its loops. The
+    /// median is the core's level wherever most of the look runs along the structure.
+    fn level_to_step_up_from(&self, behind: &[f64]) -> Option<f64> {
+        let mut inside = [0.0; STEP_SAMPLES + 1];
+        let mut count = 0;
+        for &v in behind.iter().filter(|&&v| self.window.contains(v)) {
+            inside[count] = v;
+            count += 1;
+        }
+        let inside = &mut inside[..count];
+        inside.sort_unstable_by(f64::total_cmp);
+        inside.get(count / 2).copied()
     }
 
     /// How far the image at the scale of local steps rises again within [`STEP_SAMPLES`] half
@@ -513,8 +528,43 @@ mod tests {
         let at = |x: f64| DVec3::new(x, 12.0, 12.0);
         let step = border.step_ahead(&image, at(9.0), at(10.2)).unwrap();
         assert!(!step.falling);
-        // Half-way between the structure and the bright tissue (400, less the smoothing of
-        // a structure two voxels wide), not nearer the dark tissue (360 before this rule).
-        assert!((375.0..=420.0).contains(&step.level), "{step:?}");
+        // Half-way between the structure and the bright tissue (400; the smoothing of a
+        // structure two voxels wide lifts its median level behind), not nearer the dark
+        // tissue (360 before the look behind counted only what lies in the window).
+        assert!((380.0..=440.0).contains(&step.level), "{step:?}");
+    }
+
+    #[test]
+    fn a_vessel_brightening_along_its_length_is_no_step_up_from_its_partial_volume_rim() {
+        // Along x: tissue (100), the partial-volume rim a look behind crosses where it runs
+        // obliquely out of a thin vessel (300, in the window), the vessel's core (500) and
+        // its brighter far part (750: a TOF vessel's inflow, 1.5 times the core). The look
+        // spans 2 mm voxels, twice the image's, so that the scale of local steps keeps the
+        // three levels apart.
+        let profile = |far: f64| {
+            Image::along_x(32, move |x| match x {
+                x if x < 4.0 => 100.0,
+                x if x < 7.0 => 300.0,
+                x if x < 11.0 => 500.0,
+                _ => far,
+            })
+        };
+        let border = Border {
+            window: IntensityWindow::new(500.0, 250.0, f64::INFINITY),
+            edge_strength: 0.0,
+            step: 350.0,
+            crest: 0.0,
+            valley: 0.0,
+            voxel: 2.0,
+        };
+        let at = |x: f64| DVec3::new(x, 12.0, 12.0);
+        let (x, target) = (at(10.0), at(11.2));
+        let image = profile(750.0);
+        let image = ImageScales::new(image.view());
+        assert_eq!(border.step_ahead(&image, x, target), None);
+        // Measured from the core, a brightening of twice the step is one.
+        let image = profile(1200.0);
+        let image = ImageScales::new(image.view());
+        assert!(border.step_ahead(&image, x, target).is_some());
     }
 }
