@@ -356,20 +356,18 @@ impl Border {
     /// The structure's level behind a vertex that may meet a step up: the median of the
     /// samples `behind` it that lie in the window; `None` if none does. Across a thin vessel
     /// the look behind reaches the darker tissue on its far side, out of the window, and the
-    /// partial-volume wall on the way, in it: measured from the darkest sample, a vessel that
+    /// partial-volume rim on the way, in it: measured from the darkest sample, a vessel that
     /// brightens along its length (inflow in a TOF angiogram, a coil's sensitivity, a denser
     /// bolus) met its own brighter core as a step and stopped short of closing its loops. The
     /// median is the core's level wherever most of the look runs along the structure.
     fn level_to_step_up_from(&self, behind: &[f64]) -> Option<f64> {
-        let mut inside = [0.0; STEP_SAMPLES + 1];
-        let mut count = 0;
-        for &v in behind.iter().filter(|&&v| self.window.contains(v)) {
-            inside[count] = v;
-            count += 1;
-        }
-        let inside = &mut inside[..count];
+        let mut inside: Vec<f64> = behind
+            .iter()
+            .copied()
+            .filter(|&v| self.window.contains(v))
+            .collect();
         inside.sort_unstable_by(f64::total_cmp);
-        inside.get(count / 2).copied()
+        inside.get(inside.len() / 2).copied()
     }
 
     /// How far the image at the scale of local steps rises again within [`STEP_SAMPLES`] half
