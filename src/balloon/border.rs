@@ -215,6 +215,9 @@ pub(crate) struct Border {
     pub valley: f64,
     /// A voxel (mm): local steps are measured within [`STEP_SAMPLES`] half voxels.
     pub voxel: f64,
+    /// The intensities are Hounsfield units (`hounsfield::is_ct`): a step up is measured
+    /// from the darkest of the structure behind ([`Border::level_to_step_up_from`]).
+    pub hounsfield: bool,
 }
 
 /// Where a vertex meets a local step ([`Border::step_ahead`]): it stops where the fine image
@@ -353,13 +356,17 @@ impl Border {
         (high_enough && steep && tightens && crossed).then_some(step)
     }
 
-    /// The structure's level behind a vertex that may meet a step up: the median of the
-    /// samples `behind` it that lie in the window; `None` if none does. Across a thin vessel
-    /// the look behind reaches the darker tissue on its far side, out of the window, and the
-    /// partial-volume rim on the way, in it: measured from the darkest sample, a vessel that
-    /// brightens along its length (inflow in a TOF angiogram, a coil's sensitivity, a denser
-    /// bolus) met its own brighter core as a step and stopped short of closing its loops. The
-    /// median is the core's level wherever most of the look runs along the structure.
+    /// The structure's level behind a vertex that may meet a step up, from the samples
+    /// `behind` it that lie in the window; `None` if none does. Across a thin vessel the look
+    /// behind reaches the darker tissue on its far side, out of the window, and the
+    /// partial-volume rim on the way, in it. In MR, measured from the darkest sample, a vessel
+    /// that brightens along its length (inflow in a TOF angiogram, a coil's sensitivity) met
+    /// its own brighter core as a step and stopped short of closing its loops: there it is
+    /// the median, the core's level wherever most of the look runs along the structure. In
+    /// CT a vessel does not brighten along its length, and what lies above contrast blood is
+    /// bone, marrow or calcium, a step of only a few tens of HU above the blood's own
+    /// brightest voxels: measured from the median, the aorta went into the vertebral marrow.
+    /// There it stays the darkest.
     fn level_to_step_up_from(&self, behind: &[f64]) -> Option<f64> {
         let mut inside: Vec<f64> = behind
             .iter()
@@ -367,7 +374,8 @@ impl Border {
             .filter(|&v| self.window.contains(v))
             .collect();
         inside.sort_unstable_by(f64::total_cmp);
-        inside.get(inside.len() / 2).copied()
+        let at = if self.hounsfield { 0 } else { inside.len() / 2 };
+        inside.get(at).copied()
     }
 
     /// How far the image at the scale of local steps rises again within [`STEP_SAMPLES`] half
@@ -432,6 +440,7 @@ mod tests {
             crest: 0.0,
             valley: 0.0,
             voxel: 1.0,
+            hounsfield: false,
         };
         let at = |x: f64| DVec3::new(x, 20.0, 20.0);
         // A steep edge (100 per mm): beyond the border at x = 1, nothing is passable.
@@ -482,6 +491,7 @@ mod tests {
             crest: 0.0,
             valley: 200.0,
             voxel: 1.0,
+            hounsfield: false,
         };
         let at = |x: f64| DVec3::new(x, 12.0, 12.0);
         // A vertex that remeshing put on the wall's near ramp, half a voxel from its centre.
@@ -522,6 +532,7 @@ mod tests {
             crest: 0.0,
             valley: 0.0,
             voxel: 1.0,
+            hounsfield: false,
         };
         let at = |x: f64| DVec3::new(x, 12.0, 12.0);
         let step = border.step_ahead(&image, at(9.0), at(10.2)).unwrap();
@@ -554,12 +565,20 @@ mod tests {
             crest: 0.0,
             valley: 0.0,
             voxel: 2.0,
+            hounsfield: false,
         };
         let at = |x: f64| DVec3::new(x, 12.0, 12.0);
         let (x, target) = (at(10.0), at(11.2));
         let image = profile(750.0);
         let image = ImageScales::new(image.view());
         assert_eq!(border.step_ahead(&image, x, target), None);
+        // In Hounsfield units it stays one, measured from the rim: what is brighter than
+        // contrast blood in CT is bone, marrow or calcium.
+        let hounsfield = Border {
+            hounsfield: true,
+            ..border
+        };
+        assert!(hounsfield.step_ahead(&image, x, target).is_some());
         // Measured from the core, a brightening of twice the step is one.
         let image = profile(1200.0);
         let image = ImageScales::new(image.view());

@@ -199,6 +199,7 @@ mod tests {
                 crest: 0.0,
                 valley: 0.0,
                 voxel: 1.0,
+                hounsfield: false,
             },
             weights,
             edge_length: 1.0,

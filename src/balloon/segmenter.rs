@@ -23,6 +23,7 @@ use super::border::{Border, ImageScales, IntensityWindow};
 use super::contact_search::{local_mesh, FrozenTriangles};
 use super::fairing;
 use super::front::Front;
+use super::hounsfield;
 use super::inflation::{Scratch, StepReport, Stepper};
 use super::params::BalloonParams;
 use super::reparametrize::{inherited_states, reparametrize, Keep};
@@ -256,6 +257,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         };
         let edge_length = params.edge_length.unwrap_or(geometry.mean_spacing());
         let step = local_step(&window, estimate.as_ref());
+        let in_hounsfield_units = hounsfield::is_ct(&volume);
         let mut segmenter = Segmenter {
             volume,
             image,
@@ -266,6 +268,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                 crest: thin_layer::smallest_crest(step, estimate.as_ref()),
                 valley: smallest_valley(step, estimate.as_ref()),
                 voxel: geometry.mean_spacing(),
+                hounsfield: in_hounsfield_units,
             },
             edge_length,
             surface: Surface::icosphere(seed, geometry.mean_spacing(), 1)?,

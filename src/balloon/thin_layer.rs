@@ -140,6 +140,7 @@ mod tests {
             crest: 60.0,
             valley: 0.0,
             voxel: 1.0,
+            hounsfield: false,
         }
     }
 
