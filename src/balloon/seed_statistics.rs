@@ -177,10 +177,11 @@ pub(crate) fn estimate(
     let margin = MIN_HALF_WIDTH_SIGMAS * noise;
     let darker_side = side(&darker, NEAREST_PERCENTILE, f64::NEG_INFINITY);
     let brighter_side = side(&brighter, 1.0 - NEAREST_PERCENTILE, f64::INFINITY);
-    let soft_tissue = hounsfield::is_ct(volume)
+    let ct = hounsfield::is_ct(volume);
+    let soft_tissue = ct
         .then(|| hounsfield::soft_tissue_level(volume, seed))
         .flatten();
-    let (ct_lower, ct_upper) = if hounsfield::is_ct(volume) {
+    let (ct_lower, ct_upper) = if ct {
         hounsfield::window_bounds(reference, soft_tissue, CT_MARGIN_SIGMAS * noise)
     } else {
         (f64::NEG_INFINITY, f64::INFINITY)
