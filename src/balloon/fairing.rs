@@ -30,14 +30,19 @@ const PASSES: usize = 20;
 pub(super) fn fair(surface: &mut Surface) -> Vec<DVec3> {
     let before = surface.positions().to_vec();
     let live: Vec<u32> = surface.live_vertices().collect();
+    fair_vertices(surface, &live);
+    before
+}
+
+/// Fairs only `vertices` of `surface`, the others held where they are.
+pub(super) fn fair_vertices(surface: &mut Surface, vertices: &[u32]) {
     // The rings, gathered once: walking the half-edges on every pass cost three times more.
-    let rings = surface.rings(&live);
+    let rings = surface.rings(vertices);
     for _ in 0..PASSES {
         for factor in [LAMBDA, MU] {
-            surface.umbrella_pass(&live, &rings, factor);
+            surface.umbrella_pass(vertices, &rings, factor);
         }
     }
-    before
 }
 
 /// Puts the vertices `around` and `rings` rings of neighbours around them back at `before`
@@ -70,6 +75,36 @@ mod tests {
             *p *= 1.0 + ripple / 10.0;
         }
         s
+    }
+
+    #[test]
+    fn fairing_some_vertices_holds_the_others() {
+        let mut s = rippled(2.0);
+        let before = s.positions().to_vec();
+        let top: Vec<u32> = s
+            .live_vertices()
+            .filter(|&v| before[v as usize].z > 0.0)
+            .collect();
+        // The held vertices pull their faired neighbours; a few rings away the ripple is gone.
+        let far: Vec<u32> = top
+            .iter()
+            .copied()
+            .filter(|&v| before[v as usize].z > 3.0)
+            .collect();
+        let spread = |s: &Surface| {
+            let r: Vec<f64> = far
+                .iter()
+                .map(|&v| s.positions()[v as usize].length())
+                .collect();
+            let mean = r.iter().sum::<f64>() / r.len() as f64;
+            (r.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / r.len() as f64).sqrt()
+        };
+        let rippled = spread(&s);
+        fair_vertices(&mut s, &top);
+        assert!(spread(&s) < 0.3 * rippled, "{} of {rippled}", spread(&s));
+        for v in s.live_vertices().filter(|v| !top.contains(v)) {
+            assert_eq!(s.positions()[v as usize], before[v as usize]);
+        }
     }
 
     /// The ripple left after fairing, as a fraction of the ripple before: the spread of the

@@ -65,8 +65,8 @@ const STALL_STEPS: u32 = 24;
 /// Radius, in target edge lengths, of the ball whose erosion finds the thick parts of the
 /// balloon when looking for structures that touch: thinner parts have no core of their own.
 const TOUCHING_EDGE_LENGTHS: f64 = 2.5;
-/// Rounds of undoing the fairing around contacts before undoing it everywhere, and the rings
-/// around each contact's triangles that each round puts back.
+/// Rounds of undoing the settling or the fairing around contacts before undoing it everywhere,
+/// and the rings around each contact's triangles that each round puts back.
 const UNFAIR_ROUNDS: u32 = 3;
 const UNFAIR_RINGS: usize = 2;
 /// Cell size, in target edge lengths, of the grid that finds the triangles near the moving
@@ -657,39 +657,47 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             self.freeze_self_intersections()?;
         }
         self.cut_touching(AfterReparametrization::Nothing)?;
-        let unfaired = self.fair();
-        self.validated(unfaired)
+        let earlier = self.fair();
+        self.validated(earlier)
     }
 
-    /// Fairs the final surface (`fairing`) and settles it onto the local half level where
-    /// background lies ahead (`settling`), unless it stopped with contacts
-    /// (re-parametrised next, in `validated`). Returns the positions before, by slot, for
-    /// `validated` to put back where either made the surface meet itself.
-    fn fair(&mut self) -> Option<Vec<DVec3>> {
+    /// Fairs the final surface (`fairing`) and settles it onto thin layers' crests and the
+    /// local half level where background lies ahead (`settling`), fairing the vertices moved
+    /// onto crests and their neighbours once more, unless it stopped with contacts
+    /// (re-parametrised next, in `validated`). Returns the positions, by slot, before
+    /// settling and before fairing, for `validated` to put back in that order where either
+    /// made the surface meet itself: a settled vertex may move two voxels, onto a crest.
+    fn fair(&mut self) -> Vec<Vec<DVec3>> {
         if self.has_self_intersections() {
-            return None;
+            return Vec::new();
         }
         let start = Instant::now();
         let surface = &mut self.surface;
-        let before = self.pool.install(|| fairing::fair(surface));
+        let unfaired = self.pool.install(|| fairing::fair(surface));
+        let unsettled = self.surface.positions().to_vec();
         let soft_tissue = self
             .stats
             .seed_statistics
             .as_ref()
             .and_then(|s| s.soft_tissue);
         let (surface, image, border) = (&mut self.surface, &self.image, &self.border);
-        self.pool
+        let crested = self
+            .pool
             .install(|| settling::settle(surface, image, border, soft_tissue));
+        let around: Vec<u32> = self.surface.neighbourhood(crested, 1).into_iter().collect();
+        let surface = &mut self.surface;
+        self.pool
+            .install(|| fairing::fair_vertices(surface, &around));
         self.index_surface();
         self.stats
             .seconds
             .add(Phase::Refinement, start.elapsed().as_secs_f64());
-        Some(before)
+        vec![unsettled, unfaired]
     }
 
     /// Puts the corners of the triangles in `pairs` (of `mesh`, the current surface as
     /// [`Self::mesh`] gave it) and [`UNFAIR_RINGS`] rings around them back where they were
-    /// before fairing; every vertex when `pairs` is empty.
+    /// `before` (settling or fairing); every vertex when `pairs` is empty.
     fn unfair(&mut self, before: &[DVec3], mesh: &TriMesh, pairs: &[(u32, u32)]) {
         if pairs.is_empty() {
             self.surface.positions_mut().copy_from_slice(before);
@@ -765,15 +773,12 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         Ok(limit)
     }
 
-    /// The current mesh if it meets the guarantees. Where fairing (`unfaired`: the positions
-    /// before it) made the surface meet itself, it is undone around the contacts,
-    /// [`UNFAIR_ROUNDS`] times, then everywhere. Otherwise (or straight away if it
-    /// stopped with contacts) one more re-parametrisation, without refinement or remeshing —
-    /// a marching-cubes surface has no contacts — checked again.
-    fn validated(
-        &mut self,
-        mut unfaired: Option<Vec<DVec3>>,
-    ) -> Result<(TriMesh, Vec<VertexState>)> {
+    /// The current mesh if it meets the guarantees. Where settling or fairing (`earlier`: the
+    /// positions before each, latest first) made the surface meet itself, each in turn is
+    /// undone around the contacts, [`UNFAIR_ROUNDS`] times, then everywhere. Otherwise (or
+    /// straight away if it stopped with contacts) one more re-parametrisation, without
+    /// refinement or remeshing — a marching-cubes surface has no contacts — checked again.
+    fn validated(&mut self, mut earlier: Vec<Vec<DVec3>>) -> Result<(TriMesh, Vec<VertexState>)> {
         let start = Instant::now();
         self.report(0.95, Phase::Validation)?;
         // A balloon that stopped with contacts cannot pass: repair it without measuring it.
@@ -793,12 +798,15 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                 self.report(1.0, Phase::Validation)?;
                 return Ok((mesh, states));
             }
-            if let Some(before) = unfaired.take() {
+            if !earlier.is_empty() {
                 let local = unfair_rounds < UNFAIR_ROUNDS && report.is_valid_closed_surface();
+                let before = earlier.remove(0);
                 self.unfair(&before, &mesh, if local { &pairs } else { &[] });
                 if local {
                     unfair_rounds += 1;
-                    unfaired = Some(before);
+                    earlier.insert(0, before);
+                } else {
+                    unfair_rounds = 0;
                 }
                 continue;
             }
@@ -906,11 +914,33 @@ mod tests {
         s.surface.positions_mut()[v as usize] = far;
         s.index_surface();
         assert!(!self_intersections(&s.mesh().0).is_empty());
-        let (mesh, _) = s.validated(Some(before.clone())).unwrap();
+        let (mesh, _) = s.validated(vec![before.clone()]).unwrap();
         assert!(mesh_checks::check(&mesh).is_valid_closed_surface());
         assert!(self_intersections(&mesh).is_empty());
         assert_eq!(s.surface.positions(), &before[..]);
         assert_eq!(s.stats.reparametrizations, reparametrizations);
+    }
+
+    #[test]
+    fn a_contact_settling_made_is_undone_before_the_fairing_is() {
+        let p = phantom::render(Shape::Sphere, &PhantomOptions::default()).unwrap();
+        let mut s =
+            Segmenter::new(p.image.view(), BalloonParams::default(), p.seed_world()).unwrap();
+        s.segment().unwrap();
+        let centre = s.seeds[0];
+        let unsettled = s.surface.positions().to_vec();
+        // Before fairing, as far as the test needs: the same surface a little smaller.
+        let unfaired: Vec<DVec3> = unsettled
+            .iter()
+            .map(|&x| centre + 0.97 * (x - centre))
+            .collect();
+        let v = s.surface.live_vertices().next().unwrap();
+        s.surface.positions_mut()[v as usize] = centre + 1.5 * (centre - unsettled[v as usize]);
+        s.index_surface();
+        assert!(!self_intersections(&s.mesh().0).is_empty());
+        let (mesh, _) = s.validated(vec![unsettled.clone(), unfaired]).unwrap();
+        assert!(self_intersections(&mesh).is_empty());
+        assert_eq!(s.surface.positions(), &unsettled[..]);
     }
 
     #[test]

@@ -27,6 +27,16 @@
 //! local steps, which would put its half level too low. The lower end still decides where the
 //! balloon may go while it grows, so it never enters tissue at the vessel's own level; only the
 //! place of the surface on an edge it already stopped at changes.
+//!
+//! First, though, a vertex stopped near the crest of a thin bright layer on the structure's
+//! wall (`thin_layer`: a stent's struts) moves onto it, looked for as far as the layer's
+//! reach, two voxels, on either side. While the balloon grows a vertex may only step onto a
+//! crest one step ahead (farther, and the front was carried over bone cortex and bright
+//! slivers into what lies beyond), so where dense struts bloom into a ring a voxel or two wide
+//! the upper end stopped it on the ring's near flank, a voxel inside the wires: a stent's
+//! lumen came out with Dice 0.85. Once the surface is final no vertex grows on from there.
+//! Between struts no crest is found and the surface would stay a voxel inside, in a sawtooth:
+//! the vertices moved onto crests and their neighbours are faired again (`segmenter`).
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -40,31 +50,44 @@ const DARKER_THAN_SOFT: f64 = 0.25;
 /// Steps per voxel in which the half level's crossing is looked for, up to a voxel out.
 const STEPS_PER_VOXEL: usize = 8;
 
-/// Moves the vertices of `surface` frozen at the border out to the local half level where the
-/// tissue ahead is background: in CT (`soft`, the soft tissue's HU) darker than the soft
-/// tissue, otherwise below the window (see the module's comment). The same result for any
-/// thread count.
+/// Moves the vertices of `surface` frozen at the border onto the crest of a thin bright layer
+/// within its reach, or else out to the local half level where the tissue ahead is
+/// background: in CT (`soft`, the soft tissue's HU) darker than the soft tissue, otherwise
+/// below the window (see the module's comment). Returns the vertices moved onto crests. The
+/// same result for any thread count.
 pub(super) fn settle(
     surface: &mut Surface,
     image: &ImageScales<'_>,
     border: &Border,
     soft: Option<f64>,
-) {
+) -> Vec<u32> {
     let normals = surface.vertex_normals();
     let live: Vec<u32> = surface.live_vertices().collect();
     let (positions, states) = (surface.positions(), surface.states());
-    let moved: Vec<(u32, DVec3)> = live
+    let moved: Vec<(u32, DVec3, bool)> = live
         .par_iter()
         .filter(|&&v| states[v as usize] == VertexState::FrozenAtBorder)
         .filter_map(|&v| {
             let (x, n) = (positions[v as usize], normals[v as usize]);
-            settled(image, border, soft, x, n).map(|p| (v, p))
+            on_crest(image, border, x, n)
+                .map(|p| (v, p, true))
+                .or_else(|| settled(image, border, soft, x, n).map(|p| (v, p, false)))
         })
         .collect();
     let positions = surface.positions_mut();
-    for (v, p) in moved {
+    for &(v, p, _) in &moved {
         positions[v as usize] = p;
     }
+    moved.into_iter().filter(|m| m.2).map(|m| m.0).collect()
+}
+
+/// The crest of a thin bright layer the vertex at `x` with outward unit normal `n` moves
+/// onto, if there is one.
+fn on_crest(image: &ImageScales<'_>, border: &Border, x: DVec3, n: DVec3) -> Option<DVec3> {
+    if n == DVec3::ZERO {
+        return None;
+    }
+    border.thin_layer_crest(image, x, n, border.thin_layer_reach())
 }
 
 /// Where the vertex at `x` with outward unit normal `n` settles, if it moves.
@@ -209,6 +232,35 @@ mod tests {
             settled.x > stop && (settled.x - half).abs() < 0.02,
             "{settled}"
         );
+    }
+
+    #[test]
+    fn a_vertex_stopped_low_on_a_thin_bright_layer_settles_on_its_crest() {
+        // A lumen at 300 up to x = 12, tissue at 40 beyond, and a blurred wire on the wall
+        // 600 above the lumen: the window's upper end stops a vertex on the ridge's near
+        // flank, a voxel below its crest, farther than a step of the balloon (¾ voxel).
+        let wired = Image::along_x(24, |x| {
+            let wall = if x < 12.0 { 300.0 } else { 40.0 };
+            wall + 600.0 * (-0.5 * ((x - 12.0) / 0.6).powi(2)).exp()
+        });
+        let image = ImageScales::new(wired.view());
+        let border = Border {
+            crest: 60.0,
+            ..border()
+        };
+        let at = |x: f64| image.fine.sample_world(DVec3::new(x, 12.0, 12.0)).unwrap();
+        let stop = (0..400)
+            .map(|k| 8.0 + 0.01 * k as f64)
+            .find(|&x| at(x) >= border.window.upper)
+            .unwrap();
+        assert!(stop < 11.1, "{stop}");
+        let x = DVec3::new(stop, 12.0, 12.0);
+        let crest = on_crest(&image, &border, x, DVec3::X).expect("a crest ahead");
+        assert!((crest.x - 12.0).abs() < 0.3, "{crest}");
+        // Without a wire the same stop is the border: nothing moves it.
+        let plain = Image::along_x(24, |x| if x < 12.0 { 300.0 } else { 40.0 });
+        let image = ImageScales::new(plain.view());
+        assert_eq!(on_crest(&image, &border, x, DVec3::X), None);
     }
 
     #[test]

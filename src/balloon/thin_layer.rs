@@ -21,7 +21,9 @@
 //! The crest may lie behind the crossing (a vertex that went over a ridge inside the window
 //! goes back onto it) or ahead of it by at most one step (`inflation`): farther ahead, a jump
 //! onto a crest beyond a border let a noisy MR balloon into every bright sliver around the
-//! heart. A bright neighbour thicker than the reach (bone, a second vessel) has no dark tissue
+//! heart, and a CT aorta over the vertebra's cortex into its marrow. Once the surface is final,
+//! settling (`settling`) looks for a crest as far ahead as the reach: no vertex grows on from
+//! there. A bright neighbour thicker than the reach (bone, a second vessel) has no dark tissue
 //! that close behind its crest and keeps stopping the balloon at its border; a thin vessel seen
 //! across or along a chord has no flat plateau behind its crest, only its own far wall.
 
@@ -51,6 +53,11 @@ pub(crate) fn smallest_crest(step: f64, estimate: Option<&SeedStatistics>) -> f6
 }
 
 impl Border {
+    /// How far (mm) on either side of a stop a thin layer's crest is looked for.
+    pub(crate) fn thin_layer_reach(&self) -> f64 {
+        REACH_VOXELS * self.voxel
+    }
+
     /// The crest of a thin bright layer near `crossing` (world mm), where a vertex moving along
     /// `direction` (unit) was about to stop, if there is one: behind the crossing, or at most
     /// `ahead` mm beyond it.
