@@ -78,7 +78,10 @@ pub(super) fn settle(
     for &(v, p, _) in &moved {
         positions[v as usize] = p;
     }
-    moved.into_iter().filter(|m| m.2).map(|m| m.0).collect()
+    moved
+        .into_iter()
+        .filter_map(|(v, _, onto_crest)| onto_crest.then_some(v))
+        .collect()
 }
 
 /// The crest of a thin bright layer the vertex at `x` with outward unit normal `n` moves
