@@ -898,49 +898,48 @@ mod tests {
         );
     }
 
-    #[test]
-    fn fairing_that_makes_a_contact_is_undone_there_without_remeshing() {
+    /// Segments the sphere phantom, then pushes one vertex through the ball and out of its far
+    /// side, as if fairing or settling had moved it there (its fan pierces the far wall), and
+    /// hands over the segmenter with the positions before the push.
+    fn with_a_vertex_pushed_through(test: impl FnOnce(&mut Segmenter<'_, '_>, Vec<DVec3>)) {
         let p = phantom::render(Shape::Sphere, &PhantomOptions::default()).unwrap();
         let mut s =
             Segmenter::new(p.image.view(), BalloonParams::default(), p.seed_world()).unwrap();
         s.segment().unwrap();
         let before = s.surface.positions().to_vec();
-        let reparametrizations = s.stats.reparametrizations;
-        // As if fairing had pushed one vertex through the ball and out of its far side: its
-        // fan pierces the far wall.
         let v = s.surface.live_vertices().next().unwrap();
         let centre = s.seeds[0];
-        let far = centre + 1.5 * (centre - before[v as usize]);
-        s.surface.positions_mut()[v as usize] = far;
+        s.surface.positions_mut()[v as usize] = centre + 1.5 * (centre - before[v as usize]);
         s.index_surface();
         assert!(!self_intersections(&s.mesh().0).is_empty());
-        let (mesh, _) = s.validated(vec![before.clone()]).unwrap();
-        assert!(mesh_checks::check(&mesh).is_valid_closed_surface());
-        assert!(self_intersections(&mesh).is_empty());
-        assert_eq!(s.surface.positions(), &before[..]);
-        assert_eq!(s.stats.reparametrizations, reparametrizations);
+        test(&mut s, before);
+    }
+
+    #[test]
+    fn fairing_that_makes_a_contact_is_undone_there_without_remeshing() {
+        with_a_vertex_pushed_through(|s, before| {
+            let reparametrizations = s.stats.reparametrizations;
+            let (mesh, _) = s.validated(vec![before.clone()]).unwrap();
+            assert!(mesh_checks::check(&mesh).is_valid_closed_surface());
+            assert!(self_intersections(&mesh).is_empty());
+            assert_eq!(s.surface.positions(), &before[..]);
+            assert_eq!(s.stats.reparametrizations, reparametrizations);
+        });
     }
 
     #[test]
     fn a_contact_settling_made_is_undone_before_the_fairing_is() {
-        let p = phantom::render(Shape::Sphere, &PhantomOptions::default()).unwrap();
-        let mut s =
-            Segmenter::new(p.image.view(), BalloonParams::default(), p.seed_world()).unwrap();
-        s.segment().unwrap();
-        let centre = s.seeds[0];
-        let unsettled = s.surface.positions().to_vec();
-        // Before fairing, as far as the test needs: the same surface a little smaller.
-        let unfaired: Vec<DVec3> = unsettled
-            .iter()
-            .map(|&x| centre + 0.97 * (x - centre))
-            .collect();
-        let v = s.surface.live_vertices().next().unwrap();
-        s.surface.positions_mut()[v as usize] = centre + 1.5 * (centre - unsettled[v as usize]);
-        s.index_surface();
-        assert!(!self_intersections(&s.mesh().0).is_empty());
-        let (mesh, _) = s.validated(vec![unsettled.clone(), unfaired]).unwrap();
-        assert!(self_intersections(&mesh).is_empty());
-        assert_eq!(s.surface.positions(), &unsettled[..]);
+        with_a_vertex_pushed_through(|s, unsettled| {
+            // Before fairing, as far as the test needs: the same surface a little smaller.
+            let centre = s.seeds[0];
+            let unfaired: Vec<DVec3> = unsettled
+                .iter()
+                .map(|&x| centre + 0.97 * (x - centre))
+                .collect();
+            let (mesh, _) = s.validated(vec![unsettled.clone(), unfaired]).unwrap();
+            assert!(self_intersections(&mesh).is_empty());
+            assert_eq!(s.surface.positions(), &unsettled[..]);
+        });
     }
 
     #[test]
