@@ -137,6 +137,15 @@ fn thin_vessels_brightening_along_their_length_close_their_rings() {
 }
 
 #[test]
+fn a_trunk_ending_on_its_ring_keeps_the_ring() {
+    // Variant 46's trunk (3.2 mm) ends on the wall of its ring (2.3 mm). The trunk's basin
+    // takes in the ring's crossing, so the rest of the ring meets it in two discs, one either
+    // side of the junction, whose centres together spread 7.5 times as far as across: the
+    // ring was cut off as a tube lying alongside (Dice 0.48, genus 0).
+    passes(Family::ThinVessels, 46);
+}
+
+#[test]
 fn a_stents_lumen_ends_on_its_struts_not_half_way_up_or_beyond_them() {
     // The struts bloom into ridges a voxel or two wide on the lumen's wall. Before the balloon
     // stopped on their crests (`thin_layer`) it stopped on the fall beyond them, 0.71–0.76 mm

@@ -34,8 +34,9 @@ use crate::winding_number::inside_mask;
 
 /// A contact between two basins is elongated — two structures side by side — when its length
 /// is more than this many times its width (square root of the ratio of the two largest
-/// variances of its face centres). A round cross-section has about 1; the 36 mm contact of two
-/// touching tubes 3.6 mm wide about 10.
+/// variances of its face centres), measured on its largest connected patch (`largest_patch`).
+/// A round cross-section has about 1; the 36 mm contact of two touching tubes 3.6 mm wide
+/// about 10.
 const ELONGATED: f64 = 3.0;
 /// Contacts of fewer voxel faces than this are too small to have a shape (only their area
 /// counts).
@@ -446,8 +447,8 @@ fn joined_through_round_contacts(
     dims: [usize; 3],
     grid: &Geometry,
 ) -> Vec<bool> {
-    // The centres of the voxel faces between each pair of basins, as moments.
-    let mut contacts: HashMap<(u32, u32), Moments, FastHash> = HashMap::default();
+    // The voxel faces between each pair of basins.
+    let mut contacts: HashMap<(u32, u32), Vec<Face>, FastHash> = HashMap::default();
     let voxels = Grid(dims);
     let spacing = grid.spacing();
     let face_area = [
@@ -476,11 +477,15 @@ fn joined_through_round_contacts(
                 step[axis] = if a < b { 0.5 } else { -0.5 };
                 let from_first =
                     grid.index_to_world(centre + step) - grid.index_to_world(centre - step);
-                contacts.entry((a.min(b), a.max(b))).or_default().add(
-                    grid.index_to_world(centre),
-                    face_area[axis],
-                    from_first.normalize() * face_area[axis],
-                );
+                contacts
+                    .entry((a.min(b), a.max(b)))
+                    .or_default()
+                    .push(Face {
+                        voxels: [n, m],
+                        centre: grid.index_to_world(centre),
+                        area: face_area[axis],
+                        oriented: from_first.normalize() * face_area[axis],
+                    });
             }
         }
     }
@@ -488,14 +493,15 @@ fn joined_through_round_contacts(
     let mut joined = vec![Vec::new(); count];
     let mut pairs: Vec<_> = contacts.into_iter().collect();
     pairs.sort_unstable_by_key(|(pair, _)| *pair);
-    for ((a, b), moments) in pairs {
+    for ((a, b), faces) in pairs {
+        let moments = moments_of(faces.iter());
         // The side test reads the basins around the contact: only for contacts that the
         // contact's own shape leaves open.
         let thicker = thickness[a as usize].max(thickness[b as usize]);
         let on_its_side =
             |c: u32, t: f64| meets_on_its_side(basins, c, &moments, SIDE_REACH * t, dims, grid);
         let round = moments.count < MIN_CONTACT_FACES
-            || (moments.elongation() <= ELONGATED
+            || (largest_patch(&faces, voxels).elongation() <= ELONGATED
                 && ![a, b].iter().all(|&c| {
                     let own = thickness[c as usize];
                     on_its_side(c, own) || (own < thicker && on_its_side(c, thicker))
@@ -519,6 +525,87 @@ fn joined_through_round_contacts(
         }
     }
     kept
+}
+
+/// A voxel face between two basins: the voxels on either side, its centre (world mm), area
+/// and oriented area (towards the second basin).
+struct Face {
+    voxels: [usize; 2],
+    centre: DVec3,
+    area: f64,
+    oriented: DVec3,
+}
+
+/// The moments of the faces' centres, with their areas and oriented areas.
+fn moments_of<'f>(faces: impl Iterator<Item = &'f Face>) -> Moments {
+    let mut moments = Moments::default();
+    for face in faces {
+        moments.add(face.centre, face.area, face.oriented);
+    }
+    moments
+}
+
+/// The moments of the largest connected patch of `faces` (by face count; faces whose voxels
+/// are 26-neighbours are connected). Where a thicker basin floods the crossing of a thinner
+/// tube (a trunk ending on the wall of a ring of vessels), the tube's basin meets it in two
+/// discs, one on either side of the junction, whose centres together spread like the strip
+/// along which two tubes lie side by side; each disc is round, and so is the junction.
+fn largest_patch(faces: &[Face], voxels: Grid) -> Moments {
+    let mut slots: HashMap<usize, usize, FastHash> = HashMap::default();
+    for &v in faces.iter().flat_map(|f| &f.voxels) {
+        let next = slots.len();
+        slots.entry(v).or_insert(next);
+    }
+    let mut parent: Vec<usize> = (0..slots.len()).collect();
+    let find = |parent: &mut Vec<usize>, mut a: usize| {
+        while parent[a] != a {
+            parent[a] = parent[parent[a]];
+            a = parent[a];
+        }
+        a
+    };
+    for (&v, &slot) in &slots {
+        for w in neighbours_26(voxels, v) {
+            if let Some(&other) = slots.get(&w) {
+                let (x, y) = (find(&mut parent, slot), find(&mut parent, other));
+                parent[x.max(y)] = x.min(y);
+            }
+        }
+    }
+    // Roots are the smallest slot of their patch and slots follow the faces' order, so the
+    // first-found largest patch is the same on every run.
+    let roots: Vec<usize> = faces
+        .iter()
+        .map(|f| find(&mut parent, slots[&f.voxels[0]]))
+        .collect();
+    let mut sizes: HashMap<usize, usize, FastHash> = HashMap::default();
+    for &r in &roots {
+        *sizes.entry(r).or_default() += 1;
+    }
+    let largest = roots
+        .iter()
+        .copied()
+        .max_by_key(|r| (sizes[r], std::cmp::Reverse(*r)))
+        .unwrap_or(0);
+    moments_of(
+        faces
+            .iter()
+            .zip(&roots)
+            .filter(|&(_, &r)| r == largest)
+            .map(|(f, _)| f),
+    )
+}
+
+/// The 26-neighbours of voxel `n` inside the grid.
+fn neighbours_26(voxels: Grid, n: usize) -> impl Iterator<Item = usize> {
+    let [ni, nj, nk] = voxels.0;
+    let (i, j, k) = voxels.coordinates(n);
+    let near = |c: usize, size: usize| c.saturating_sub(1)..=(c + 1).min(size - 1);
+    near(k, nk)
+        .flat_map(move |z| {
+            near(j, nj).flat_map(move |y| near(i, ni).map(move |x| x + ni * (y + nj * z)))
+        })
+        .filter(move |&m| m != n)
 }
 
 /// Whether `basin` meets the contact `contact` on its side: around the contact (within `reach`
@@ -790,6 +877,36 @@ mod tests {
             cut.points().iter().all(|p| p.x < 1.5),
             "nothing of the second tube"
         );
+    }
+
+    /// Faces between voxels `(i, 0, k)` and `(i, 1, k)` of a 40 × 2 × 5 grid, for each `i` in
+    /// `columns` and every `k`.
+    fn faces_at(columns: impl Iterator<Item = usize>) -> Vec<Face> {
+        columns
+            .flat_map(|i| (0..5).map(move |k| (i, k)))
+            .map(|(i, k)| {
+                let n = i + 40 * 2 * k;
+                Face {
+                    voxels: [n, n + 40],
+                    centre: DVec3::new(i as f64, 0.5, k as f64),
+                    area: 1.0,
+                    oriented: DVec3::Y,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn two_discs_apart_are_round_patches_and_a_strip_is_one_elongated_patch() {
+        let voxels = Grid([40, 2, 5]);
+        // Two 5 × 5 patches 25 voxels apart: together as spread as a strip.
+        let discs = faces_at((0..5).chain(30..35));
+        assert!(moments_of(discs.iter()).elongation() > ELONGATED);
+        assert!(largest_patch(&discs, voxels).elongation() <= ELONGATED);
+        assert_eq!(largest_patch(&discs, voxels).count, 25);
+        let strip = faces_at(0..35);
+        assert!(largest_patch(&strip, voxels).elongation() > ELONGATED);
+        assert_eq!(largest_patch(&strip, voxels).count, strip.len());
     }
 
     #[test]
