@@ -8,6 +8,7 @@
 
 pub mod balloon;
 pub mod closest_point;
+pub mod digital_topology;
 pub mod error;
 pub mod evaluation;
 pub mod ffi;

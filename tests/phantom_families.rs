@@ -180,6 +180,13 @@ fn a_trunk_ending_on_its_ring_keeps_the_ring() {
 }
 
 #[test]
+fn a_handle_narrower_than_a_voxel_around_a_stents_wire_is_closed() {
+    // Variant 28: the lumen's surface wrapped around its struts (wires 0.28 mm thick) with a
+    // handle its 0.63 × 0.63 × 1.69 mm voxels do not have (genus 1; on the voxels, 0).
+    passes(Family::Stent, 28);
+}
+
+#[test]
 fn a_stents_lumen_ends_on_its_struts_not_half_way_up_or_beyond_them() {
     // The struts bloom into ridges a voxel or two wide on the lumen's wall. Before the balloon
     // stopped on their crests (`thin_layer`) it stopped on the fall beyond them, 0.71–0.76 mm

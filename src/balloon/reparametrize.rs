@@ -27,6 +27,7 @@ use rayon::prelude::*;
 
 use super::fast_hash::FastHash;
 use super::surface::VertexState;
+use crate::digital_topology::euler_characteristic;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::marching_cubes::marching_cubes;
@@ -35,6 +36,7 @@ use crate::mesh_checks;
 use crate::morphology::{self, Grid};
 use crate::signed_distance::{signed_distance_values, SignedDistanceOptions};
 use crate::volume::VoxelBuffer;
+use crate::winding_number::inside_mask;
 
 /// Voxels of the map beyond the balloon's bounding box on every side: the outermost layer is
 /// outside the balloon by at least one voxel, so marching cubes closes the surface.
@@ -89,6 +91,18 @@ pub(crate) fn reparametrize(
         isosurface(field, dims, &grid, 0.0)?,
         voxel,
     ))
+}
+
+/// The genus the inside of the closed, single-piece `mesh` has on the re-parametrisation's
+/// grid (that of `geometry`), where a handle narrower than a voxel is closed; `None` where the
+/// voxels inside do not hold together across their faces: a part of it thinner than a voxel
+/// (a thin vessel's loop, closed where two fronts met) is broken there, and what the voxels
+/// say of its handles does not hold for it.
+pub(crate) fn voxel_genus(mesh: &TriMesh, geometry: &Geometry) -> Result<Option<i64>> {
+    let (grid, dims) = covering_grid(mesh, geometry, MARGIN_VOXELS)?;
+    let inside = inside_mask(mesh, dims, &grid)?;
+    let (_, pieces) = morphology::components(&inside, dims);
+    Ok((pieces == 1).then(|| 1 - euler_characteristic(&inside, dims)))
 }
 
 /// Closes the inside of `field` (negative inside) by a ball of `CLOSING_VOXELS` and moves the
