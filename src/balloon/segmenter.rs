@@ -803,7 +803,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             if report.is_valid_closed_surface() && pairs.is_empty() {
                 let result = match report.genus() {
                     Some(genus) if genus > 0 && !repaired && report.components == 1 => self
-                        .with_fewer_handles(&mesh, genus)?
+                        .with_fewer_handles(&mesh, genus, report.signed_volume)?
                         .unwrap_or((mesh, states)),
                     _ => (mesh, states),
                 };
@@ -840,12 +840,11 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             repaired = true;
         }
     }
-}
 
-impl Segmenter<'_, '_> {
-    /// The final surface `mesh` (of genus `genus`) re-parametrised (without refinement), if
-    /// its voxels have fewer handles and the new surface is valid with fewer, not fewer than
-    /// the voxels, and of the same volume within [`KEPT_VOLUME`]; otherwise the surface stays
+    /// The final surface `mesh` (of genus `genus`, enclosing `volume`) re-parametrised (without
+    /// refinement), if its voxels have fewer handles and the new surface is valid with fewer,
+    /// not fewer than the voxels, and of the same volume within [`KEPT_VOLUME`]; otherwise the
+    /// surface stays
     /// as it was. A handle narrower than a voxel is one the image cannot show, and the paper's
     /// re-parametrisation closes it: the stents' lumens wrapped around their struts (variants
     /// 8, 28, 41, 52: genus 1), the slab aorta around something on its wall (genus 2).
@@ -853,6 +852,7 @@ impl Segmenter<'_, '_> {
         &mut self,
         mesh: &TriMesh,
         genus: i64,
+        volume: f64,
     ) -> Result<Option<(TriMesh, Vec<VertexState>)>> {
         let geometry = *self.volume.geometry();
         let Some(least) = self.pool.install(|| voxel_genus(mesh, &geometry))? else {
@@ -862,17 +862,18 @@ impl Segmenter<'_, '_> {
             return Ok(None);
         }
         let before = self.surface.clone();
-        let mesh_before = mesh;
         self.replace_by_isosurface(AfterReparametrization::Nothing)?;
-        let (mesh, states) = self.mesh();
-        let report = mesh_checks::check(&mesh);
-        let kept = mesh_checks::check(mesh_before).signed_volume;
+        let (without_handles, states) = self.mesh();
+        let report = mesh_checks::check(&without_handles);
         if report.is_valid_closed_surface()
             && report.genus().is_some_and(|g| g < genus && g >= least)
-            && (report.signed_volume - kept).abs() <= KEPT_VOLUME * kept
-            && self.pool.install(|| self_intersections(&mesh)).is_empty()
+            && (report.signed_volume - volume).abs() <= KEPT_VOLUME * volume
+            && self
+                .pool
+                .install(|| self_intersections(&without_handles))
+                .is_empty()
         {
-            return Ok(Some((mesh, states)));
+            return Ok(Some((without_handles, states)));
         }
         self.replace_surface(before);
         Ok(None)
