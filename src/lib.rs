@@ -9,6 +9,7 @@
 pub mod balloon;
 pub mod closest_point;
 pub mod digital_topology;
+mod disjoint_sets;
 pub mod error;
 pub mod evaluation;
 pub mod ffi;

@@ -9,6 +9,7 @@
 //! triangles traverse it in opposite directions. A vertex is manifold when its incident triangles
 //! form one fan (its link is one path or one cycle).
 
+use crate::disjoint_sets::DisjointSets;
 use rayon::prelude::*;
 
 use crate::mesh::TriMesh;
@@ -166,38 +167,6 @@ pub fn component_volumes(mesh: &TriMesh) -> (Vec<u32>, Vec<f64>) {
         volumes[label as usize] += (a - centre).dot((b - centre).cross(c - centre)) / 6.0;
     }
     (labels, volumes)
-}
-
-/// Union–find with path halving; small and allocation-free after construction.
-struct DisjointSets {
-    parent: Vec<u32>,
-}
-
-impl DisjointSets {
-    fn new(n: usize) -> Self {
-        DisjointSets {
-            parent: (0..n as u32).collect(),
-        }
-    }
-
-    fn find(&mut self, mut x: u32) -> u32 {
-        while self.parent[x as usize] != x {
-            let grand = self.parent[self.parent[x as usize] as usize];
-            self.parent[x as usize] = grand;
-            x = grand;
-        }
-        x
-    }
-
-    fn union(&mut self, a: u32, b: u32) {
-        let (ra, rb) = (self.find(a), self.find(b));
-        // The smaller root wins so that labels do not depend on union order.
-        if ra < rb {
-            self.parent[rb as usize] = ra;
-        } else if rb < ra {
-            self.parent[ra as usize] = rb;
-        }
-    }
 }
 
 /// Component label of every triangle, numbered 0.. in order of first appearance.

@@ -25,6 +25,7 @@ use glam::{DMat3, DVec3};
 
 use super::fast_hash::FastHash;
 use super::reparametrize::{covering_grid, isosurface, keep_seeded_components, without_cavities};
+use crate::disjoint_sets::DisjointSets;
 use crate::error::Result;
 use crate::geometry::Geometry;
 use crate::mesh::TriMesh;
@@ -551,34 +552,26 @@ fn moments_of<'f>(faces: impl Iterator<Item = &'f Face>) -> Moments {
 /// discs, one on either side of the junction, whose centres together spread like the strip
 /// along which two tubes lie side by side; each disc is round, and so is the junction.
 fn largest_patch(faces: &[Face], voxels: Grid) -> Moments {
-    let mut slots: HashMap<usize, usize, FastHash> = HashMap::default();
+    let mut slots: HashMap<usize, u32, FastHash> = HashMap::default();
     for &v in faces.iter().flat_map(|f| &f.voxels) {
-        let next = slots.len();
+        let next = slots.len() as u32;
         slots.entry(v).or_insert(next);
     }
-    let mut parent: Vec<usize> = (0..slots.len()).collect();
-    let find = |parent: &mut Vec<usize>, mut a: usize| {
-        while parent[a] != a {
-            parent[a] = parent[parent[a]];
-            a = parent[a];
-        }
-        a
-    };
+    let mut patches = DisjointSets::new(slots.len());
     for (&v, &slot) in &slots {
         for w in neighbours_26(voxels, v) {
             if let Some(&other) = slots.get(&w) {
-                let (x, y) = (find(&mut parent, slot), find(&mut parent, other));
-                parent[x.max(y)] = x.min(y);
+                patches.union(slot, other);
             }
         }
     }
     // Roots are the smallest slot of their patch and slots follow the faces' order, so the
     // first-found largest patch is the same on every run.
-    let roots: Vec<usize> = faces
+    let roots: Vec<u32> = faces
         .iter()
-        .map(|f| find(&mut parent, slots[&f.voxels[0]]))
+        .map(|f| patches.find(slots[&f.voxels[0]]))
         .collect();
-    let mut sizes: HashMap<usize, usize, FastHash> = HashMap::default();
+    let mut sizes: HashMap<u32, usize, FastHash> = HashMap::default();
     for &r in &roots {
         *sizes.entry(r).or_default() += 1;
     }
