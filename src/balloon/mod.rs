@@ -5,6 +5,7 @@
 
 pub mod border;
 mod contact_search;
+mod facets;
 mod fairing;
 mod fast_hash;
 pub mod forces;

@@ -21,6 +21,7 @@ use glam::DVec3;
 
 use super::border::{Border, ImageScales, IntensityWindow};
 use super::contact_search::{local_mesh, FrozenTriangles};
+use super::facets::offset_by_facet_depth;
 use super::fairing;
 use super::front::Front;
 use super::hounsfield;
@@ -73,6 +74,10 @@ const STALL_STEPS: u32 = 24;
 /// At 2.5, two tubes of radius 3.2 mm on 1.92 mm slices (a mean spacing of 1.29 mm) had none,
 /// and the second was taken in.
 const TOUCHING_EDGE_LENGTHS: f64 = 2.0;
+/// The largest move of a vertex by its triangles' depth below the surface (`facets`), in
+/// voxels: triangles a voxel across on a vessel a voxel and a half in radius lie 0.04 voxel
+/// inside it on average, so only a mesh far coarser than its structure reaches the cap.
+const FACET_DEPTH_VOXELS: f64 = 0.25;
 /// Rounds of undoing the settling or the fairing around contacts before undoing it everywhere,
 /// and the rings around each contact's triangles that each round puts back.
 const UNFAIR_ROUNDS: u32 = 3;
@@ -671,10 +676,12 @@ impl<'v, 'p> Segmenter<'v, 'p> {
 
     /// Fairs the final surface (`fairing`) and settles it onto thin layers' crests and the
     /// local half level where background lies ahead (`settling`), fairing the vertices moved
-    /// onto crests and their neighbours once more, unless it stopped with contacts
-    /// (re-parametrised next, in `validated`). Returns the positions, by slot, before
-    /// settling and before fairing, for `validated` to put back in that order where either
-    /// made the surface meet itself: a settled vertex may move two voxels, onto a crest.
+    /// onto crests and their neighbours once more, then moves the vertices out by their
+    /// triangles' depth below the surface through them (`facets`), unless it stopped with
+    /// contacts (re-parametrised next, in `validated`). Returns the positions, by slot, before
+    /// that move, before settling and before fairing, for `validated` to put back in that
+    /// order where any made the surface meet itself: a settled vertex may move two voxels,
+    /// onto a crest.
     fn fair(&mut self) -> Vec<Vec<DVec3>> {
         if self.has_self_intersections() {
             return Vec::new();
@@ -696,16 +703,20 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         let surface = &mut self.surface;
         self.pool
             .install(|| fairing::fair_vertices(surface, &around));
+        let (surface, largest) = (&mut self.surface, FACET_DEPTH_VOXELS * self.border.voxel);
+        let unmoved = self
+            .pool
+            .install(|| offset_by_facet_depth(surface, largest));
         self.index_surface();
         self.stats
             .seconds
             .add(Phase::Refinement, start.elapsed().as_secs_f64());
-        vec![unsettled, unfaired]
+        vec![unmoved, unsettled, unfaired]
     }
 
     /// Puts the corners of the triangles in `pairs` (of `mesh`, the current surface as
     /// [`Self::mesh`] gave it) and [`UNFAIR_RINGS`] rings around them back where they were
-    /// `before` (settling or fairing); every vertex when `pairs` is empty.
+    /// `before` (the facets' move, settling or fairing); every vertex when `pairs` is empty.
     fn unfair(&mut self, before: &[DVec3], mesh: &TriMesh, pairs: &[(u32, u32)]) {
         if pairs.is_empty() {
             self.surface.positions_mut().copy_from_slice(before);
@@ -782,9 +793,9 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     }
 
     /// The current mesh if it meets the guarantees, without the handles narrower than a voxel
-    /// ([`Self::with_fewer_handles`]). Where settling or fairing (`earlier`: the positions
-    /// before each, latest first) made the surface meet itself, each in turn is undone around
-    /// the contacts, [`UNFAIR_ROUNDS`] times, then everywhere. Otherwise (or straight away if
+    /// ([`Self::with_fewer_handles`]). Where the facets' move, settling or fairing (`earlier`:
+    /// the positions before each, latest first) made the surface meet itself, each in turn is
+    /// undone around the contacts, [`UNFAIR_ROUNDS`] times, then everywhere. Otherwise (or straight away if
     /// it stopped with contacts) one more re-parametrisation, without refinement or remeshing —
     /// a marching-cubes surface has no contacts — checked again.
     fn validated(&mut self, mut earlier: Vec<Vec<DVec3>>) -> Result<(TriMesh, Vec<VertexState>)> {
