@@ -5,7 +5,7 @@
 
 pub mod border;
 mod contact_search;
-mod facets;
+mod curvature_offset;
 mod fairing;
 mod fast_hash;
 pub mod forces;

@@ -21,7 +21,7 @@ use glam::DVec3;
 
 use super::border::{Border, ImageScales, IntensityWindow};
 use super::contact_search::{local_mesh, FrozenTriangles};
-use super::facets::offset_by_facet_depth;
+use super::curvature_offset::offset_by_curvature;
 use super::fairing;
 use super::front::Front;
 use super::hounsfield;
@@ -74,11 +74,11 @@ const STALL_STEPS: u32 = 24;
 /// At 2.5, two tubes of radius 3.2 mm on 1.92 mm slices (a mean spacing of 1.29 mm) had none,
 /// and the second was taken in.
 const TOUCHING_EDGE_LENGTHS: f64 = 2.0;
-/// The largest move of a vertex by its triangles' depth below the surface (`facets`), in
-/// voxels: triangles a voxel across on a vessel a voxel and a half in radius lie 0.04 voxel
-/// inside it on average, so only a mesh far coarser than its structure reaches the cap.
-const FACET_DEPTH_VOXELS: f64 = 0.25;
-/// Rounds of undoing the settling or the fairing around contacts before undoing it everywhere,
+/// The largest move of a vertex by its mean curvature (`curvature_offset`), in voxels: on a
+/// vessel a voxel and a half in radius, triangles a voxel across and the fine image's blur
+/// move it by about 0.15 voxel, so only a structure well under a voxel reaches the cap.
+const CURVATURE_OFFSET_VOXELS: f64 = 0.25;
+/// Rounds of undoing each finishing step (curvature offset, settling, fairing) around contacts,
 /// and the rings around each contact's triangles that each round puts back.
 const UNFAIR_ROUNDS: u32 = 3;
 const UNFAIR_RINGS: usize = 2;
@@ -676,12 +676,12 @@ impl<'v, 'p> Segmenter<'v, 'p> {
 
     /// Fairs the final surface (`fairing`) and settles it onto thin layers' crests and the
     /// local half level where background lies ahead (`settling`), fairing the vertices moved
-    /// onto crests and their neighbours once more, then moves the vertices out by their
-    /// triangles' depth below the surface through them (`facets`), unless it stopped with
-    /// contacts (re-parametrised next, in `validated`). Returns the positions, by slot, before
-    /// that move, before settling and before fairing, for `validated` to put back in that
-    /// order where any made the surface meet itself: a settled vertex may move two voxels,
-    /// onto a crest.
+    /// onto crests and their neighbours once more, then moves the vertices out by the biases
+    /// of their triangles and of the fine image on a curved surface (`curvature_offset`),
+    /// unless it stopped with contacts (re-parametrised next, in `validated`). Returns the
+    /// positions, by slot, before that move, before settling and before fairing, for
+    /// `validated` to put back in that order where any made the surface meet itself: a settled
+    /// vertex may move two voxels, onto a crest.
     fn fair(&mut self) -> Vec<Vec<DVec3>> {
         if self.has_self_intersections() {
             return Vec::new();
@@ -696,17 +696,25 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .as_ref()
             .and_then(|s| s.soft_tissue);
         let (surface, image, border) = (&mut self.surface, &self.image, &self.border);
-        let crested = self
+        let settled = self
             .pool
             .install(|| settling::settle(surface, image, border, soft_tissue));
-        let around: Vec<u32> = self.surface.neighbourhood(crested, 1).into_iter().collect();
+        let around: Vec<u32> = self
+            .surface
+            .neighbourhood(settled.crested, 1)
+            .into_iter()
+            .collect();
         let surface = &mut self.surface;
         self.pool
             .install(|| fairing::fair_vertices(surface, &around));
-        let (surface, largest) = (&mut self.surface, FACET_DEPTH_VOXELS * self.border.voxel);
+        let variance = self.image.fine.blur_variances().iter().sum::<f64>() / 3.0;
+        let on_edge = settled.on_darker_edge;
+        let smoothing = |v: u32| if on_edge[v as usize] { variance } else { 0.0 };
+        let largest = CURVATURE_OFFSET_VOXELS * self.border.voxel;
+        let surface = &mut self.surface;
         let unmoved = self
             .pool
-            .install(|| offset_by_facet_depth(surface, largest));
+            .install(|| offset_by_curvature(surface, smoothing, largest));
         self.index_surface();
         self.stats
             .seconds
@@ -716,7 +724,8 @@ impl<'v, 'p> Segmenter<'v, 'p> {
 
     /// Puts the corners of the triangles in `pairs` (of `mesh`, the current surface as
     /// [`Self::mesh`] gave it) and [`UNFAIR_RINGS`] rings around them back where they were
-    /// `before` (the facets' move, settling or fairing); every vertex when `pairs` is empty.
+    /// `before` (the curvature offset, settling or fairing); every vertex when `pairs` is
+    /// empty.
     fn unfair(&mut self, before: &[DVec3], mesh: &TriMesh, pairs: &[(u32, u32)]) {
         if pairs.is_empty() {
             self.surface.positions_mut().copy_from_slice(before);
@@ -793,11 +802,12 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     }
 
     /// The current mesh if it meets the guarantees, without the handles narrower than a voxel
-    /// ([`Self::with_fewer_handles`]). Where the facets' move, settling or fairing (`earlier`:
-    /// the positions before each, latest first) made the surface meet itself, each in turn is
-    /// undone around the contacts, [`UNFAIR_ROUNDS`] times, then everywhere. Otherwise (or straight away if
-    /// it stopped with contacts) one more re-parametrisation, without refinement or remeshing —
-    /// a marching-cubes surface has no contacts — checked again.
+    /// ([`Self::with_fewer_handles`]). Where the curvature offset, settling or fairing
+    /// (`earlier`: the positions before each, latest first) made the surface meet itself, each
+    /// in turn is undone around the contacts, [`UNFAIR_ROUNDS`] times each, then the latest
+    /// everywhere, and so on. Otherwise (or straight away if it stopped with contacts) one more
+    /// re-parametrisation, without refinement or remeshing — a marching-cubes surface has no
+    /// contacts — checked again.
     fn validated(&mut self, mut earlier: Vec<Vec<DVec3>>) -> Result<(TriMesh, Vec<VertexState>)> {
         let start = Instant::now();
         self.report(0.95, Phase::Validation)?;
@@ -825,13 +835,16 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                 return Ok(result);
             }
             if !earlier.is_empty() {
-                let local = unfair_rounds < UNFAIR_ROUNDS && report.is_valid_closed_surface();
-                let before = earlier.remove(0);
-                self.unfair(&before, &mesh, if local { &pairs } else { &[] });
-                if local {
+                // Around the contacts, each step undone in turn, latest first, before the
+                // latest is undone everywhere: a contact settling made stays when only the
+                // curvature offset is undone around it.
+                let stage = (unfair_rounds / UNFAIR_ROUNDS) as usize;
+                if stage < earlier.len() && report.is_valid_closed_surface() {
+                    self.unfair(&earlier[stage], &mesh, &pairs);
                     unfair_rounds += 1;
-                    earlier.insert(0, before);
                 } else {
+                    let before = earlier.remove(0);
+                    self.unfair(&before, &mesh, &[]);
                     unfair_rounds = 0;
                 }
                 continue;

@@ -1,9 +1,9 @@
 //! Settling the finished surface onto the local half level: half-way between the structure
-//! right behind each vertex and the tissue right ahead, where that lies outside the window's
-//! lower end.
+//! right behind each vertex and the background right ahead.
 //!
 //! The window's lower end is one level for the whole balloon, drawn from the seed's
-//! surroundings. Two kinds of images put the structure's own edge below it:
+//! surroundings, and the balloon stops where the image first falls below it. The structure's
+//! own edge is elsewhere wherever the structure or its surroundings differ from the seed's:
 //! - **CT**: the lower end is at least half-way to the soft tissue around the seed
 //!   (`hounsfield`): a vessel that meets fat around the seed runs against enhanced parenchyma
 //!   and muscle a few centimetres on, and a window half-way to fat would take those in. Where
@@ -11,22 +11,26 @@
 //!   as the window's ends are drawn everywhere else (full width at half maximum) — lies below
 //!   that lower end (every one of the CT phantom family's balloons came out smaller than its
 //!   truth: 0.85–1.00 of its volume, median 0.95).
-//! - **MR, no fixed units**: the bolus and the coil's bias drift along a vessel, so where a
-//!   vessel is dimmer than at the seed its half level lies below the lower end drawn from the
-//!   seed's, and its surface sat up to a third of a voxel inside (thin tortuous vessels whose
-//!   contrast drifts to half: 0.6–0.9 of their volume).
+//! - **MR, no fixed units**: the bolus and the coil's bias drift along a vessel. Where a vessel
+//!   is dimmer than at the seed its half level lies below the lower end, and its surface sat up
+//!   to a third of a voxel inside (thin tortuous vessels whose contrast drifts to half: 0.6–0.9
+//!   of their volume); where it is brighter, its half level lies above the lower end, and the
+//!   surface sat outside on the ramp down to the background (rings up to twice as bright as
+//!   the trunk: up to 1.09 of the volume).
 //!
 //! So once the surface is final, each vertex frozen at the border looks along its outward
 //! normal: the structure's level is the highest within 2.5 voxels behind it, the tissue ahead
 //! the lowest within 2.5 voxels ahead (at the scale of local steps, `ImageScales::mid`). Where
 //! that tissue is background — in CT darker than the soft tissue by a quarter of the
-//! structure's contrast to it (fat or lung); otherwise below the window — and the half level
-//! between the two lies below the window's lower end, the vertex moves out to where the fine
-//! image crosses the half level, at most a voxel. In MR the structure's level is read on the
-//! fine image: a tube two or three voxels across loses a third of its peak at the scale of
-//! local steps, which would put its half level too low. The lower end still decides where the
-//! balloon may go while it grows, so it never enters tissue at the vessel's own level; only the
-//! place of the surface on an edge it already stopped at changes.
+//! structure's contrast to it (fat or lung); otherwise below the window — the vertex moves to
+//! where the fine image crosses the half level between the two, at most a voxel: out where
+//! the half level lies below the window's lower end, in where the vertex lies beyond it. In MR
+//! the structure's level is read on the fine image: a tube two or three voxels across loses a
+//! third of its peak at the scale of local steps, which would put its half level too low. The
+//! lower end still decides where the balloon may go while it grows, so it never enters tissue
+//! at the vessel's own level; only the place of the surface on an edge it already stopped at
+//! changes. The fine image's half level of a curved edge lies inside the edge by its
+//! smoothing's variance times the mean curvature; `curvature_offset` moves it back.
 //!
 //! First, though, a vertex stopped near the crest of a thin bright layer on the structure's
 //! wall (`thin_layer`: a stent's struts) moves onto it, looked for as far as the layer's
@@ -47,41 +51,72 @@ use super::surface::{Surface, VertexState};
 /// Tissue ahead darker than the soft tissue by this share of the structure's contrast to it is
 /// fat or lung, not soft tissue at a level the window's lower end was raised to keep out.
 const DARKER_THAN_SOFT: f64 = 0.25;
-/// Steps per voxel in which the half level's crossing is looked for, up to a voxel out.
+/// Steps per voxel in which the half level's crossing is looked for, up to a voxel either way.
 const STEPS_PER_VOXEL: usize = 8;
 
+/// What [`settle`] did.
+pub(super) struct Settled {
+    /// The vertices moved onto crests.
+    pub crested: Vec<u32>,
+    /// By slot: whether the vertex lies on an edge against tissue darker than the window's
+    /// lower end, where the fine image placed it (`curvature_offset`), rather than on a crest,
+    /// or against tissue at the structure's own level (a neighbour it was cut from).
+    pub on_darker_edge: Vec<bool>,
+}
+
 /// Moves the vertices of `surface` frozen at the border onto the crest of a thin bright layer
-/// within its reach, or else out to the local half level where the tissue ahead is
+/// within its reach, or else onto the local half level where the tissue ahead is
 /// background: in CT (`soft`, the soft tissue's HU) darker than the soft tissue, otherwise
-/// below the window (see the module's comment). Returns the vertices moved onto crests. The
-/// same result for any thread count.
+/// below the window (see the module's comment). The same result for any thread count.
 pub(super) fn settle(
     surface: &mut Surface,
     image: &ImageScales<'_>,
     border: &Border,
     soft: Option<f64>,
-) -> Vec<u32> {
+) -> Settled {
     let normals = surface.vertex_normals();
     let live: Vec<u32> = surface.live_vertices().collect();
     let (positions, states) = (surface.positions(), surface.states());
-    let moved: Vec<(u32, DVec3, bool)> = live
+    let outcomes: Vec<(u32, Option<DVec3>, bool, bool)> = live
         .par_iter()
         .filter(|&&v| states[v as usize] == VertexState::FrozenAtBorder)
-        .filter_map(|&v| {
+        .map(|&v| {
             let (x, n) = (positions[v as usize], normals[v as usize]);
-            on_crest(image, border, x, n)
-                .map(|p| (v, p, true))
-                .or_else(|| settled(image, border, soft, x, n).map(|p| (v, p, false)))
+            if let Some(crest) = on_crest(image, border, x, n) {
+                return (v, Some(crest), true, false);
+            }
+            let darker = darkest_ahead(image, border, x, n) < border.window.lower;
+            (v, settled(image, border, soft, x, n), false, darker)
         })
         .collect();
+    let mut on_darker_edge = vec![false; surface.vertex_slots()];
     let positions = surface.positions_mut();
-    for &(v, p, _) in &moved {
-        positions[v as usize] = p;
+    let mut crested = Vec::new();
+    for (v, moved, onto_crest, darker) in outcomes {
+        if let Some(p) = moved {
+            positions[v as usize] = p;
+        }
+        if onto_crest {
+            crested.push(v);
+        }
+        on_darker_edge[v as usize] = darker;
     }
-    moved
-        .into_iter()
-        .filter_map(|(v, _, onto_crest)| onto_crest.then_some(v))
-        .collect()
+    Settled {
+        crested,
+        on_darker_edge,
+    }
+}
+
+/// The lowest of the image at the scale of local steps within 2.5 voxels ahead of `x` along
+/// `n`, as far as a local step's level ahead is read: a blurred edge's ramp.
+fn darkest_ahead(image: &ImageScales<'_>, border: &Border, x: DVec3, n: DVec3) -> f64 {
+    (1..=STEP_SAMPLES)
+        .filter_map(|k| {
+            image
+                .mid
+                .sample_world(x + (k as f64 * 0.5 * border.voxel) * n)
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// The crest of a thin bright layer the vertex at `x` with outward unit normal `n` moves
@@ -112,13 +147,11 @@ fn settled(
         &image.fine
     };
     let along = |k: f64| x + k * half_voxel * n;
-    // As far behind and ahead as a local step's two levels are read: a blurred edge's ramp.
+    // As far behind as a local step's level is read: a blurred edge's ramp.
     let inside = (0..=STEP_SAMPLES)
         .filter_map(|k| structure.sample_world(along(-(k as f64))))
         .fold(f64::NEG_INFINITY, f64::max);
-    let ahead = (1..=STEP_SAMPLES)
-        .filter_map(|k| image.mid.sample_world(along(k as f64)))
-        .fold(f64::INFINITY, f64::min);
+    let ahead = darkest_ahead(image, border, x, n);
     let dark = match soft {
         Some(soft) => soft - DARKER_THAN_SOFT * (window.reference - soft),
         None => window.lower,
@@ -127,18 +160,24 @@ fn settled(
         return None;
     }
     let level = 0.5 * (inside + ahead);
-    let fine = |t: f64| image.fine.sample_world(x + t * n);
-    if level >= window.lower || fine(0.0)? <= level {
+    let here = image.fine.sample_world(x)?;
+    // Out to the half level where it lies below the lower end, in where the vertex lies
+    // beyond it (the structure brighter here than at the seed).
+    let outwards = if here > level && level < window.lower {
+        1.0
+    } else if here < level {
+        -1.0
+    } else {
         return None;
-    }
+    };
     let h = border.voxel / STEPS_PER_VOXEL as f64;
-    let mut before = (0.0, fine(0.0)?);
+    let mut before = (0.0, here);
     for k in 1..=STEPS_PER_VOXEL {
-        let t = k as f64 * h;
-        let value = fine(t)?;
-        if value <= level {
+        let t = outwards * k as f64 * h;
+        let value = image.fine.sample_world(x + t * n)?;
+        if (value - level) * (before.1 - level) <= 0.0 {
             let share = (before.1 - level) / (before.1 - value);
-            return Some(x + (before.0 + share * h) * n);
+            return Some(x + (before.0 + outwards * share * h) * n);
         }
         before = (t, value);
     }
@@ -235,6 +274,26 @@ mod tests {
             settled.x > stop && (settled.x - half).abs() < 0.02,
             "{settled}"
         );
+    }
+
+    #[test]
+    fn in_mr_a_vessel_brighter_than_at_the_seed_settles_in_on_its_own_half_level() {
+        // The vessel has drifted to 560 against a background of 60: its edge is at 310, and
+        // the balloon stopped further out, where the image falls to the lower end, 200.
+        let bright = edge(560.0, 60.0);
+        let image = ImageScales::new(bright.view());
+        let stop = crossing(&image, 200.0);
+        let x = DVec3::new(stop, 12.0, 12.0);
+        let moved = settled(&image, &mr_border(), None, x, DVec3::X).expect("background ahead");
+        let half = crossing(&image, 310.0);
+        assert!(
+            moved.x < stop && (moved.x - half).abs() < 0.02,
+            "{moved} vs {half}"
+        );
+        // On its half level already, it stays.
+        let on_edge = DVec3::new(half, 12.0, 12.0);
+        let again = settled(&image, &mr_border(), None, on_edge, DVec3::X);
+        assert!(again.is_none_or(|p| (p.x - half).abs() < 0.02), "{again:?}");
     }
 
     #[test]
