@@ -40,10 +40,8 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         "degenerate_triangles": report.degenerate_triangles,
         "unreferenced_vertices": report.unreferenced_vertices,
     });
-    println!(
-        "{}",
-        serde_json::to_string_pretty(&summary).expect("plain JSON values")
-    );
+    let json = serde_json::to_string_pretty(&summary).expect("plain JSON values");
+    crate::print_out(&format!("{json}\n"))?;
     let valid = report.is_valid_closed_surface() && pairs == 0;
     Ok(if args.strict && !valid {
         ExitCode::FAILURE

@@ -99,7 +99,7 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
          thinner than it is (the coarse image decides there, where the fine one has no edge)."
     )
     .expect("writing to a String");
-    print!("{report}");
+    crate::print_out(&report)?;
     let path = args.dir.join("report.txt");
     std::fs::write(&path, &report)
         .map_err(|e| Error::io(format!("cannot write {}: {e}", crate::shown(&path))))?;

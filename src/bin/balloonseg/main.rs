@@ -77,6 +77,19 @@ fn fail(reason: &str) -> ExitCode {
     ExitCode::FAILURE
 }
 
+/// Writes `text` to standard output. A reader that went away (`balloonseg check … | head -3`)
+/// is not an error: it wants no more. `println!` panicked on the broken pipe.
+fn print_out(text: &str) -> balloonseg::Result<()> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(balloonseg::Error::io(
+            format!("cannot write to standard output: {e}"),
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// The file name for messages: what the user typed.
 fn shown(path: &std::path::Path) -> String {
     path.display().to_string()

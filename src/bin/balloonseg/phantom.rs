@@ -79,10 +79,8 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         Ok(family) => write_variant(args, family)?,
         Err(_) => write_shape(args)?,
     };
-    println!(
-        "{}",
-        serde_json::to_string_pretty(&summary).expect("plain JSON values")
-    );
+    let json = serde_json::to_string_pretty(&summary).expect("plain JSON values");
+    crate::print_out(&format!("{json}\n"))?;
     Ok(ExitCode::SUCCESS)
 }
 
