@@ -85,8 +85,9 @@ pub(super) fn settle(
             if let Some(crest) = on_crest(image, border, x, n) {
                 return (v, Some(crest), true, false);
             }
-            let darker = darkest_ahead(image, border, x, n) < border.window.lower;
-            (v, settled(image, border, soft, x, n), false, darker)
+            let ahead = darkest_ahead(image, border, x, n);
+            let moved = settled(image, border, soft, x, n, ahead);
+            (v, moved, false, ahead < border.window.lower)
         })
         .collect();
     let mut on_darker_edge = vec![false; surface.vertex_slots()];
@@ -128,13 +129,15 @@ fn on_crest(image: &ImageScales<'_>, border: &Border, x: DVec3, n: DVec3) -> Opt
     border.thin_layer_crest(image, x, n, border.thin_layer_reach())
 }
 
-/// Where the vertex at `x` with outward unit normal `n` settles, if it moves.
+/// Where the vertex at `x` with outward unit normal `n` settles, if it moves; `ahead` is the
+/// tissue ahead of it ([`darkest_ahead`]).
 fn settled(
     image: &ImageScales<'_>,
     border: &Border,
     soft: Option<f64>,
     x: DVec3,
     n: DVec3,
+    ahead: f64,
 ) -> Option<DVec3> {
     let window = border.window;
     if !window.lower.is_finite() || n == DVec3::ZERO {
@@ -151,7 +154,6 @@ fn settled(
     let inside = (0..=STEP_SAMPLES)
         .filter_map(|k| structure.sample_world(along(-(k as f64))))
         .fold(f64::NEG_INFINITY, f64::max);
-    let ahead = darkest_ahead(image, border, x, n);
     let dark = match soft {
         Some(soft) => soft - DARKER_THAN_SOFT * (window.reference - soft),
         None => window.lower,
@@ -209,6 +211,24 @@ mod tests {
         }
     }
 
+    /// Where the vertex at `x` with normal `n` settles, reading the tissue ahead as `settle` does.
+    fn settle_one(
+        image: &ImageScales<'_>,
+        border: &Border,
+        soft: Option<f64>,
+        x: DVec3,
+        n: DVec3,
+    ) -> Option<DVec3> {
+        settled(
+            image,
+            border,
+            soft,
+            x,
+            n,
+            darkest_ahead(image, border, x, n),
+        )
+    }
+
     /// Where the fine image crosses `level` along x at y = z = 12.
     fn crossing(image: &ImageScales<'_>, level: f64) -> f64 {
         let at = |x: f64| image.fine.sample_world(DVec3::new(x, 12.0, 12.0)).unwrap();
@@ -230,7 +250,7 @@ mod tests {
         let image = ImageScales::new(fat.view());
         let stop = crossing(&image, 120.0);
         let x = DVec3::new(stop, 12.0, 12.0);
-        let settled = settled(&image, &border(), Some(40.0), x, DVec3::X).expect("fat ahead");
+        let settled = settle_one(&image, &border(), Some(40.0), x, DVec3::X).expect("fat ahead");
         // Half-way between the structure and the fat: 50 HU, further out.
         let half = crossing(&image, 50.0);
         assert!(
@@ -245,11 +265,14 @@ mod tests {
         let muscle = edge(200.0, 40.0);
         let image = ImageScales::new(muscle.view());
         let x = DVec3::new(crossing(&image, 120.0), 12.0, 12.0);
-        assert_eq!(settled(&image, &border(), Some(40.0), x, DVec3::X), None);
+        assert_eq!(settle_one(&image, &border(), Some(40.0), x, DVec3::X), None);
         // A vertex without a normal does not move either.
         let fat = edge(200.0, -100.0);
         let image = ImageScales::new(fat.view());
-        assert_eq!(settled(&image, &border(), Some(40.0), x, DVec3::ZERO), None);
+        assert_eq!(
+            settle_one(&image, &border(), Some(40.0), x, DVec3::ZERO),
+            None
+        );
     }
 
     /// An MR window around 300 whose lower end, 200, is half-way to a background at 100.
@@ -268,7 +291,8 @@ mod tests {
         let image = ImageScales::new(dim.view());
         let stop = crossing(&image, 200.0);
         let x = DVec3::new(stop, 12.0, 12.0);
-        let settled = settled(&image, &mr_border(), None, x, DVec3::X).expect("background ahead");
+        let settled =
+            settle_one(&image, &mr_border(), None, x, DVec3::X).expect("background ahead");
         let half = crossing(&image, 160.0);
         assert!(
             settled.x > stop && (settled.x - half).abs() < 0.02,
@@ -284,7 +308,7 @@ mod tests {
         let image = ImageScales::new(bright.view());
         let stop = crossing(&image, 200.0);
         let x = DVec3::new(stop, 12.0, 12.0);
-        let moved = settled(&image, &mr_border(), None, x, DVec3::X).expect("background ahead");
+        let moved = settle_one(&image, &mr_border(), None, x, DVec3::X).expect("background ahead");
         let half = crossing(&image, 310.0);
         assert!(
             moved.x < stop && (moved.x - half).abs() < 0.02,
@@ -292,7 +316,7 @@ mod tests {
         );
         // On its half level already, it stays.
         let on_edge = DVec3::new(half, 12.0, 12.0);
-        let again = settled(&image, &mr_border(), None, on_edge, DVec3::X);
+        let again = settle_one(&image, &mr_border(), None, on_edge, DVec3::X);
         assert!(again.is_none_or(|p| (p.x - half).abs() < 0.02), "{again:?}");
     }
 
@@ -330,6 +354,6 @@ mod tests {
         let neighbour = edge(260.0, 220.0);
         let image = ImageScales::new(neighbour.view());
         let x = DVec3::new(crossing(&image, 240.0), 12.0, 12.0);
-        assert_eq!(settled(&image, &mr_border(), None, x, DVec3::X), None);
+        assert_eq!(settle_one(&image, &mr_border(), None, x, DVec3::X), None);
     }
 }
