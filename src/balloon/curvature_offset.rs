@@ -21,10 +21,10 @@
 //!
 //! Together: each vertex moves out along its normal by H·(L²/8 + s²). The umbrella vector —
 //! the neighbours' centroid minus the vertex — measures H: neighbours at squared distance L²
-//! (their mean) lie H·L²/2 below the vertex's tangent plane on average. Its depth is averaged
-//! over the vertex and its neighbours first: a lone vertex out of line would otherwise be
-//! pushed further out of line, the opposite of fairing. Where the surface is concave the same
-//! rule moves it in.
+//! (their mean) lie H·L²/2 below the vertex's tangent plane on average. That curvature is
+//! averaged over the vertex and its neighbours first: a lone vertex out of line would otherwise
+//! be pushed further out of line, the opposite of fairing. Where the surface is concave the
+//! same rule moves it in.
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -59,7 +59,13 @@ pub(super) fn offset_by_curvature(
                 .sum::<f64>()
                 / count;
             let depth = (p - centroid).dot(normals[v as usize]);
-            (2.0 * depth / spread, spread)
+            // Neighbours all on the vertex (degenerate triangles) show no curvature.
+            let curvature = if spread > 0.0 {
+                2.0 * depth / spread
+            } else {
+                0.0
+            };
+            (curvature, spread)
         })
         .collect();
     let mut curvature = vec![0.0; before.len()];
@@ -129,6 +135,19 @@ mod tests {
                 p.length()
             );
         }
+    }
+
+    #[test]
+    fn a_vertex_on_top_of_its_neighbours_stays_finite() {
+        // A tetrahedron squashed to a point: no spread, no curvature, no NaN.
+        let mesh = crate::mesh::TriMesh::new(
+            vec![DVec3::ZERO; 4],
+            vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+        )
+        .unwrap();
+        let mut surface = Surface::from_mesh(&mesh).unwrap();
+        offset_by_curvature(&mut surface, |_| 1.0, 1.0);
+        assert!(surface.positions().iter().all(|p| p.is_finite()));
     }
 
     #[test]
