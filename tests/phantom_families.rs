@@ -25,6 +25,11 @@ fn segmented(variant: &Variant) -> TriMesh {
 }
 
 fn passes(family: Family, number: u64) {
+    holds(family, number, 0.95);
+}
+
+/// The sweep's criterion with a Dice of at least `least`: a valid mesh of the family's genus.
+fn holds(family: Family, number: u64, least: f64) {
     let variant = family.variant(number).unwrap();
     let mesh = segmented(&variant);
     let report = mesh_checks::check(&mesh);
@@ -42,7 +47,7 @@ fn passes(family: Family, number: u64) {
     let overlap =
         overlap_with_shape(&mesh, |p| variant.truth(p), variant.truth_bounds(), step).unwrap();
     assert!(
-        overlap.dice() >= 0.95,
+        overlap.dice() >= least,
         "{family:?} {number}: Dice {}",
         overlap.dice()
     );
@@ -198,15 +203,7 @@ fn a_trunk_ending_on_its_ring_keeps_the_ring() {
     // ring was cut off as a tube lying alongside (Dice 0.48, genus 0). Kept, the ring still
     // falls short of the sweep's 0.95 (0.944): under 0.52 mm of the scanner's blur its half
     // level lies inside its wall, and `curvature_offset` undoes only the balloon's own blur.
-    let variant = Family::ThinVessels.variant(46).unwrap();
-    let mesh = segmented(&variant);
-    let report = mesh_checks::check(&mesh);
-    assert!(report.is_valid_closed_surface(), "{report:?}");
-    assert_eq!(report.genus(), Some(1), "{report:?}");
-    let step = 0.5 * variant.image.geometry().min_spacing();
-    let overlap =
-        overlap_with_shape(&mesh, |p| variant.truth(p), variant.truth_bounds(), step).unwrap();
-    assert!(overlap.dice() >= 0.94, "Dice {}", overlap.dice());
+    holds(Family::ThinVessels, 46, 0.94);
 }
 
 #[test]
