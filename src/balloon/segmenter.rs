@@ -868,10 +868,10 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     /// The final surface `mesh` (of genus `genus`, enclosing `volume`) re-parametrised (without
     /// refinement), if its voxels have fewer handles and the new surface is valid with fewer,
     /// not fewer than the voxels, and of the same volume within [`KEPT_VOLUME`]; otherwise the
-    /// surface stays
-    /// as it was. A handle narrower than a voxel is one the image cannot show, and the paper's
-    /// re-parametrisation closes it: the stents' lumens wrapped around their struts (variants
-    /// 8, 28, 41, 52: genus 1), the slab aorta around something on its wall (genus 2).
+    /// surface stays as it was. A handle narrower than a voxel is one the image cannot show,
+    /// and the paper's re-parametrisation closes it: the stents' lumens wrapped around their
+    /// struts (variants 8, 28, 41, 52: genus 1), the slab aorta around something on its wall
+    /// (genus 2).
     fn with_fewer_handles(
         &mut self,
         mesh: &TriMesh,
