@@ -60,6 +60,9 @@ pub(super) const STEP_SAMPLES: usize = 5;
 const STEEP_VOXELS: f64 = 3.0;
 /// The hysteresis window's half-width, in tolerances.
 const WIDE_WINDOW: f64 = 1.5;
+/// How many times its contrast over the darker surroundings a vessel's signal may reach
+/// along it in MR (the inflow and coil drifts of a TOF or phase-contrast angiogram).
+const MAX_DRIFT: f64 = 2.0;
 /// Inflation speed at the window's border, kept beyond it where there is no edge.
 const BORDER_SPEED: f64 = 0.5;
 /// Inflation speed beyond the border: the containing force.
@@ -218,6 +221,11 @@ pub(crate) struct Border {
     /// The intensities are Hounsfield units (`hounsfield::is_ct`): a step up is measured
     /// from the darkest of the structure behind ([`Border::level_to_step_up_from`]).
     pub hounsfield: bool,
+    /// In an image without fixed units (MR), the level of the darker tissue around the
+    /// structure: a vessel's signal may rise along it to [`MAX_DRIFT`] times its contrast over
+    /// that level, so a step up is an edge only where it rises beyond (`Border::step_ahead`).
+    /// `None` in a CT, whose contrast does not rise along a vessel, or without the level.
+    pub surroundings: Option<f64>,
 }
 
 /// Where a vertex meets a local step ([`Border::step_ahead`]): it stops where the fine image
@@ -290,7 +298,8 @@ impl Border {
     /// the tissue right ahead: a wall of darker tissue a voxel thick, or muscle inside a window
     /// that fat and lung set elsewhere, stops the balloon although the window holds them, and
     /// so does bone or a stent strut above an open upper end; a bolus fading along a vessel is
-    /// no step, however far it fades. The way a vertex comes tells which side the structure is
+    /// no step, however far it fades, nor in MR a vessel brightening within its drift
+    /// ([`Border::surroundings`]). The way a vertex comes tells which side the structure is
     /// on; looking as far behind as ahead keeps the level the same all along the step's ramp,
     /// and lets a vertex that remeshing put just past a step see it. It is looked for only
     /// where `target` is half a step from the reference, which inside the structure noise and
@@ -341,6 +350,10 @@ impl Border {
                 && depth >= self.valley
                 && self.rise_beyond(image, target, direction, &ahead) >= 0.5 * self.valley);
         let ahead = ahead_level;
+        let drifts = !falling
+            && self
+                .surroundings
+                .is_some_and(|level| ahead - level <= MAX_DRIFT * (inside - level));
         let step = Step {
             level: 0.5 * (inside + ahead),
             falling,
@@ -353,7 +366,7 @@ impl Border {
             .fine
             .sample_world(target)
             .is_some_and(|v| step.crossed(v));
-        (high_enough && steep && tightens && crossed).then_some(step)
+        (high_enough && steep && tightens && crossed && !drifts).then_some(step)
     }
 
     /// The structure's level behind a vertex that may meet a step up, from the samples
@@ -441,6 +454,7 @@ mod tests {
             valley: 0.0,
             voxel: 1.0,
             hounsfield: false,
+            surroundings: None,
         };
         let at = |x: f64| DVec3::new(x, 20.0, 20.0);
         // A steep edge (100 per mm): beyond the border at x = 1, nothing is passable.
@@ -492,6 +506,7 @@ mod tests {
             valley: 200.0,
             voxel: 1.0,
             hounsfield: false,
+            surroundings: None,
         };
         let at = |x: f64| DVec3::new(x, 12.0, 12.0);
         // A vertex that remeshing put on the wall's near ramp, half a voxel from its centre.
@@ -533,6 +548,7 @@ mod tests {
             valley: 0.0,
             voxel: 1.0,
             hounsfield: false,
+            surroundings: None,
         };
         let at = |x: f64| DVec3::new(x, 12.0, 12.0);
         let step = border.step_ahead(&image, at(9.0), at(10.2)).unwrap();
@@ -566,6 +582,7 @@ mod tests {
             valley: 0.0,
             voxel: 2.0,
             hounsfield: false,
+            surroundings: None,
         };
         let at = |x: f64| DVec3::new(x, 12.0, 12.0);
         let (x, target) = (at(10.0), at(11.2));
@@ -583,5 +600,43 @@ mod tests {
         let image = profile(1200.0);
         let image = ImageScales::new(image.view());
         assert!(border.step_ahead(&image, x, target).is_some());
+    }
+
+    #[test]
+    fn in_mr_a_vessel_brightening_within_its_drift_is_no_step_up() {
+        // Along x: tissue (100), a vessel (500) and its brighter continuation from x = 14.
+        let vessel = |far: f64| {
+            Image::along_x(32, move |x| match x {
+                x if x < 4.0 => 100.0,
+                x if x < 14.0 => 500.0,
+                _ => far,
+            })
+        };
+        let border = Border {
+            window: IntensityWindow::new(500.0, 300.0, f64::INFINITY),
+            edge_strength: 0.0,
+            step: 200.0,
+            crest: 0.0,
+            valley: 0.0,
+            voxel: 1.0,
+            hounsfield: false,
+            surroundings: Some(100.0),
+        };
+        let at = |x: f64| DVec3::new(x, 12.0, 12.0);
+        let (x, target) = (at(13.2), at(14.2));
+        let steps = |border: &Border, far: f64| {
+            let image = vessel(far);
+            border.step_ahead(&ImageScales::new(image.view()), x, target)
+        };
+        // 1.75 times the contrast over the surroundings: the vessel's own drift.
+        assert_eq!(steps(&border, 800.0), None);
+        // Without the surroundings' level it was a step, as it still is in a CT.
+        let unknown = Border {
+            surroundings: None,
+            ..border
+        };
+        assert!(steps(&unknown, 800.0).is_some_and(|s| !s.falling));
+        // 2.75 times: brighter tissue beyond the vessel (fat on a T1 image).
+        assert!(steps(&border, 1200.0).is_some_and(|s| !s.falling));
     }
 }

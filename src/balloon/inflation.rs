@@ -200,6 +200,7 @@ mod tests {
                 valley: 0.0,
                 voxel: 1.0,
                 hounsfield: false,
+                surroundings: None,
             },
             weights,
             edge_length: 1.0,

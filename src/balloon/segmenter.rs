@@ -282,6 +282,10 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                 valley: smallest_valley(step, estimate.as_ref()),
                 voxel: geometry.mean_spacing(),
                 hounsfield: in_hounsfield_units,
+                surroundings: estimate
+                    .as_ref()
+                    .filter(|s| !in_hounsfield_units && s.darker.rays > 0)
+                    .map(|s| s.darker.level),
             },
             edge_length,
             surface: Surface::icosphere(seed, geometry.mean_spacing(), 1)?,

@@ -208,6 +208,7 @@ mod tests {
             valley: 0.0,
             voxel: 1.0,
             hounsfield: false,
+            surroundings: None,
         }
     }
 

@@ -148,6 +148,7 @@ mod tests {
             valley: 0.0,
             voxel: 1.0,
             hounsfield: false,
+            surroundings: None,
         }
     }
 
