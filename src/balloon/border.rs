@@ -35,6 +35,15 @@
 //!   than its neighbours for the balloon to stop, and on the fine image the noise would choose,
 //!   voxel by voxel (a noisy fading tube came out with up to 8 handles); two voxels of
 //!   smoothing leave a tenth of the noise, and the balloon stops in one smooth cap.
+//! - **Fading thin vessels** (outside CT, `Border::fading`): two voxels of smoothing keep only
+//!   0.4 of a 2-voxel vessel's contrast at its axis, so an MR vessel that fades towards half
+//!   its contrast ([`MAX_DRIFT`]) fails the coarse test and the balloon stalled in it, leaving
+//!   rings open. On the mid image such a vessel's axis still stands out: the balloon goes on
+//!   where that image is at least the half level of a vessel at half the contrast, is not on
+//!   an edge's slope, and stands above the image two voxels away on every axis by a share of
+//!   the contrast that a vessel of up to two voxels in radius at half the contrast reaches
+//!   (2.5 voxels at two thirds; thicker ones keep enough of their contrast for the coarse
+//!   test).
 //! - **Beyond the border** the speed is negative (the paper's containing force); NaN (unknown
 //!   intensity) is beyond the border, and so are the voxels of structures cut off as leaks.
 
@@ -63,6 +72,18 @@ const WIDE_WINDOW: f64 = 1.5;
 /// How many times its contrast over the darker surroundings a vessel's signal may reach
 /// along it in MR (the inflow and coil drifts of a TOF or phase-contrast angiogram).
 const MAX_DRIFT: f64 = 2.0;
+/// How far around a point (voxels) the mid image is read to tell a thin vessel's axis
+/// (`Border::fading`).
+const FADING_REACH_VOXELS: f64 = 2.0;
+/// How far a thin vessel's axis stands above the mean of the mid image [`FADING_REACH_VOXELS`]
+/// away on the three axes, as a share of the structure's contrast. Two voxels off the axis of
+/// a vessel of radius R voxels the mid image lies 0.45 (R = 1.5–2), 0.34 (2.5) and 0.22 (3) of
+/// the vessel's own contrast below the axis, on four of the six samples: this share takes in
+/// vessels of up to two voxels at half the structure's contrast and of 2.5 voxels at two
+/// thirds. Thicker ones keep enough of their contrast on the coarse image (a 2.5-voxel vessel
+/// at half the contrast keeps 0.27 of it at its axis, within the wide window). The inside of a
+/// thick structure is flat two voxels around, and an edge's foot is no ridge.
+const FADING_RIDGE: f64 = 0.15;
 /// Inflation speed at the window's border, kept beyond it where there is no edge.
 const BORDER_SPEED: f64 = 0.5;
 /// Inflation speed beyond the border: the containing force.
@@ -274,6 +295,7 @@ impl Border {
                 .is_some_and(|(v, g)| {
                     self.window.wide_contains(v) && g.length() < EDGE_FRACTION * self.edge_strength
                 })
+                || self.fading(image, x, intensity)
         };
         Some(if no_edge() {
             Place {
@@ -288,6 +310,39 @@ impl Border {
                 speed: CONTAINING_SPEED,
             }
         })
+    }
+
+    /// Whether `x` (world mm) lies on the axis of a thin vessel that fades below the window
+    /// (see the module's comment), where the structure's darker surroundings are known
+    /// ([`Border::surroundings`]): the mid image there is at least the half level of a vessel
+    /// at 1 / [`MAX_DRIFT`] of the contrast, its gradient is under the edge strength, and it
+    /// stands [`FADING_RIDGE`] of the contrast above the mean of the mid image
+    /// [`FADING_REACH_VOXELS`] away along the three axes. `fine` is the fine image at `x`:
+    /// on a thin vessel's axis it stands above the mid image, so below the half level it
+    /// rules the place out before the mid image is read (most places a vertex's bisection
+    /// tries beyond a border are background).
+    fn fading(&self, image: &ImageScales<'_>, x: DVec3, fine: f64) -> bool {
+        let Some(surroundings) = self.surroundings else {
+            return false;
+        };
+        let contrast = self.window.reference - surroundings;
+        let half_level = surroundings + contrast / (2.0 * MAX_DRIFT);
+        if fine < half_level {
+            return false;
+        }
+        let Some((here, gradient)) = image.mid.sample_with_gradient_world(x) else {
+            return false;
+        };
+        if here < half_level || gradient.length() >= self.edge_strength {
+            return false;
+        }
+        let reach = FADING_REACH_VOXELS * self.voxel;
+        let around: Option<f64> = [DVec3::X, DVec3::Y, DVec3::Z]
+            .into_iter()
+            .flat_map(|axis| [axis, -axis])
+            .map(|d| image.mid.sample_world(x + reach * d))
+            .sum();
+        around.is_some_and(|sum| sum / 6.0 < here - FADING_RIDGE * contrast)
     }
 
     /// The local step a vertex meets on its way from `x` to `target` (world mm), if any: the
@@ -427,6 +482,7 @@ impl Border {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::Geometry;
     use crate::volume::Image;
 
     #[test]
@@ -638,5 +694,53 @@ mod tests {
         assert!(steps(&unknown, 800.0).is_some_and(|s| !s.falling));
         // 2.75 times: brighter tissue beyond the vessel (fat on a T1 image).
         assert!(steps(&border, 1200.0).is_some_and(|s| !s.falling));
+    }
+
+    #[test]
+    fn in_mr_a_thin_vessel_fading_below_the_window_is_no_edge_and_a_thick_ones_foot_is() {
+        // On a 1 mm grid: tissue at 100 and a vessel of radius 2 running along z through
+        // (12, 12), faded to 360, 0.65 of the contrast of 400 at the seed and below the
+        // window's lower end; a thick structure at the same faded level fills x ≥ 24.
+        let n = 40;
+        let image = Image::from_fn([n, n, n], Geometry::identity(), |i, j, _| {
+            let (x, y) = (i as f64, j as f64);
+            let in_vessel = (x - 12.0).hypot(y - 12.0) <= 2.0;
+            if in_vessel || x >= 24.0 {
+                360.0
+            } else {
+                100.0
+            }
+        })
+        .unwrap();
+        let image = ImageScales::new(image.view());
+        let border = Border {
+            window: IntensityWindow::new(500.0, 400.0, f64::INFINITY),
+            edge_strength: 150.0,
+            step: 100.0,
+            crest: 0.0,
+            valley: 0.0,
+            voxel: 1.0,
+            hounsfield: false,
+            surroundings: Some(100.0),
+        };
+        let at = |x: f64, y: f64| DVec3::new(x, y, 20.0);
+        let fine = |p: DVec3| image.fine.sample_world(p).unwrap();
+        // The faded vessel's axis: below the window, but no edge.
+        assert!(!border.window.contains(fine(at(12.0, 12.0))));
+        assert!(border.fading(&image, at(12.0, 12.0), fine(at(12.0, 12.0))));
+        assert!(border.passable(&image, at(12.0, 12.0)));
+        // Beside it, inside the thick structure (flat) and on the foot of its edge, above the
+        // half level but below the window and on a slope, it is not.
+        assert!(!border.fading(&image, at(14.5, 12.0), fine(at(14.5, 12.0))));
+        assert!(!border.fading(&image, at(30.0, 12.0), fine(at(30.0, 12.0))));
+        let foot = at(23.6, 12.0);
+        assert!((200.0..400.0).contains(&fine(foot)), "{}", fine(foot));
+        assert!(!border.fading(&image, foot, fine(foot)));
+        // Without the surroundings' level (a CT) there is no such rule.
+        let ct = Border {
+            surroundings: None,
+            ..border
+        };
+        assert!(!ct.fading(&image, at(12.0, 12.0), fine(at(12.0, 12.0))));
     }
 }
