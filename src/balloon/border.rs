@@ -243,9 +243,10 @@ pub(crate) struct Border {
     /// from the darkest of the structure behind ([`Border::level_to_step_up_from`]).
     pub hounsfield: bool,
     /// In an image without fixed units (MR), the level of the darker tissue around the
-    /// structure: a vessel's signal may rise along it to [`MAX_DRIFT`] times its contrast over
-    /// that level, so a step up is an edge only where it rises beyond (`Border::step_ahead`).
-    /// `None` in a CT, whose contrast does not rise along a vessel, or without the level.
+    /// structure: a vessel's signal may drift along it to [`MAX_DRIFT`] times its contrast over
+    /// that level, so a step up is an edge only where it rises beyond (`Border::step_ahead`),
+    /// and a thin vessel fading to half of it is followed (`Border::fading`). `None` in a CT,
+    /// whose contrast does not rise along a vessel, or without the level.
     pub surroundings: Option<f64>,
 }
 
