@@ -315,14 +315,14 @@ fn voxel_of(p: DVec3, dims: [usize; 3]) -> Option<usize> {
 /// For each voxel of `inside`, the label of the core that reaches it first when the cores
 /// grow over the inside level by level down the distance map `depth`, `level_depth` mm at a
 /// time, and within each level along shortest paths (steps between 6-neighbours of the
-/// isotropic grid); `u32::MAX` outside and where no core is reached. A thin structure lying against a thick one
-/// (a renal vein on the aorta) has no core of its own where the two meet: grown along shortest
-/// paths alone, the thick one's core took the thin one's stretch beyond a pinhole between them
-/// and the thin one's basin began a cross-section further on, as if the thick one branched
-/// there. Level by level, the thin one's ridge is taken along its own length before the
-/// pinhole's shallower saddle is crossed. Within a level the flood's order does not decide
-/// where two basins meet: shortest paths do. Ties go to the smaller label, so the partition is
-/// deterministic.
+/// isotropic grid); `u32::MAX` outside and where no core is reached. A thin structure lying
+/// against a thick one (a renal vein on the aorta) has no core of its own where the two meet:
+/// grown along shortest paths alone, the thick one's core took the thin one's stretch beyond a
+/// pinhole between them and the thin one's basin began a cross-section further on, as if the
+/// thick one branched there. Level by level, the thin one's ridge is taken along its own length
+/// before the pinhole's shallower saddle is crossed. Within a level the flood's order does not
+/// decide where two basins meet: shortest paths do. Ties go to the smaller label, so the
+/// partition is deterministic.
 fn grow_cores(
     inside: &[bool],
     depth: &[f64],
