@@ -1,6 +1,6 @@
 //! balloonseg: segmentation of an anatomical structure from a CT or MR volume by inflating a
 //! triangulated balloon from a seed point, with topology repair by a signed-distance map and
-//! marching cubes (see `README.md` and the paper it follows).
+//! marching cubes (see `README.md`, `docs/method.md` and the paper it follows).
 //!
 //! The geometry kernels are public on their own: marching cubes, self-intersection detection,
 //! signed distance and mesh checks. Everything works on borrowed, strided volumes of any

@@ -1,5 +1,6 @@
-//! The balloon's parameters (SPEC §1): every one optional, with defaults that work on the
-//! shared scans from a seed alone, and a validation that says which value to change.
+//! The balloon's parameters (docs/interfaces.md; how the defaults are chosen: docs/method.md):
+//! every one optional, with defaults that work on the shared scans from a seed alone, and a
+//! validation that says which value to change.
 
 use super::forces::ForceWeights;
 use crate::error::{Error, Result};

@@ -1,4 +1,4 @@
-//! Remeshing of the balloon while it grows (paper, section 2, Figure 1.b; SPEC §1 step 3):
+//! Remeshing of the balloon while it grows (paper, section 2, Figure 1.b; docs/method.md, step 1):
 //! longest-edge-first midpoint splits, shortest-edge-first collapses guarded by the link
 //! condition (Dey, Edelsbrunner et al., "Topology preserving edge contraction", 1999) and by
 //! geometric checks, and valence-improving edge flips (as in Botsch & Kobbelt's isotropic

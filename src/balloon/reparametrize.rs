@@ -1,4 +1,4 @@
-//! Re-parametrisation (paper, section 3; SPEC §1 step 6): the balloon with its
+//! Re-parametrisation (paper, section 3; docs/method.md, step 3): the balloon with its
 //! self-intersecting triangles deleted is turned into a signed distance map on the voxel grid —
 //! distance to the remaining triangles, sign from the whole balloon (negative inside, where its
 //! winding number is positive, so overlapping lobes count as inside) — whose zero isosurface

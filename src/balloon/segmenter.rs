@@ -1,4 +1,4 @@
-//! The whole method of the paper (SPEC §1), as a segmenter that can be driven step by step
+//! The whole method of the paper (docs/method.md), as a segmenter that can be driven step by step
 //! (the C ABI's `balloon_step`, `balloon_freeze_self_intersections`, `balloon_reparametrize`)
 //! or run to completion (`segment`).
 //!

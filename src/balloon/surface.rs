@@ -1,6 +1,6 @@
 //! The balloon's dynamic mesh: a closed, consistently oriented triangulated 2-manifold (any
 //! genus, any number of components) stored as an implicit half-edge structure, with the
-//! per-vertex freeze state the balloon needs (paper, section 2; SPEC §1 steps 1–3).
+//! per-vertex freeze state the balloon needs (paper, section 2; docs/method.md, step 1).
 //!
 //! Triangle `t` owns the half-edges `3t`, `3t+1`, `3t+2`; half-edge `3t+i` runs from corner `i`
 //! to corner `i+1 (mod 3)`, so `next`/`prev` are arithmetic and only the twin of each half-edge

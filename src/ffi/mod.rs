@@ -1,5 +1,6 @@
 //! The C ABI of balloonseg (`include/balloonseg.h`, generated from this module by cbindgen;
-//! SPEC §2), a thin layer over the safe API modelled on rustls-ffi and libimagequant.
+//! docs/interfaces.md, "C API"), a thin layer over the safe API modelled on rustls-ffi and
+//! libimagequant.
 //!
 //! Conventions, for every function:
 //! - **Status.** Every fallible function returns a [`BalloonStatus`] (`BALLOON_OK` = 0) and

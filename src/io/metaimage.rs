@@ -3,9 +3,9 @@
 //!
 //! Geometry: `TransformMatrix` (alias `Rotation`, `Orientation`) lists the direction matrix column
 //! by column — the unit vector of the i axis first — as ITK writes and reads it (VTK's reader takes
-//! it transposed; ITK is the reference, see SPEC "Coordinates"). `Offset` (alias `Position`,
-//! `Origin`) is the world position of voxel (0,0,0); `ElementSpacing` (else `ElementSize`) the
-//! spacing. A 2-D image becomes a volume one slice thick.
+//! it transposed; ITK is the reference, see docs/interfaces.md, "Coordinates"). `Offset` (alias
+//! `Position`, `Origin`) is the world position of voxel (0,0,0); `ElementSpacing` (else
+//! `ElementSize`) the spacing. A 2-D image becomes a volume one slice thick.
 //!
 //! Voxels: `ElementDataFile = LOCAL` (right after the header), a file name relative to the header
 //! (`HeaderSize` bytes skipped first; -1 means the data ends the file), or `LIST` followed by one

@@ -4,7 +4,7 @@
 //! Every reader loads the whole file, checks each count it reads against the bytes that remain
 //! before allocating for it, and reports corrupt or truncated input as an error of kind
 //! `Format` that names the file and the place, never as a panic. Images are in ITK's LPS world
-//! space (SPEC "Coordinates").
+//! space (docs/interfaces.md, "Coordinates").
 
 mod compression;
 pub(crate) mod files;

@@ -1,5 +1,6 @@
-//! The `balloonseg` command line (SPEC §3): thin wrappers that read files, call the library and
-//! write files. Every error ends the process with a one-line reason and a non-zero exit code.
+//! The `balloonseg` command line (docs/interfaces.md, "Command line"): thin wrappers that read
+//! files, call the library and write files. Every error ends the process with a one-line reason and
+//! a non-zero exit code.
 
 mod check;
 mod demo;
