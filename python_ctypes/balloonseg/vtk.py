@@ -83,6 +83,15 @@ class BalloonSegmentationFilter(VTKPythonAlgorithmBase):
     def GetSeed(self, index: int = 0) -> tuple[float, float, float]:
         return self._seeds[index]
 
+    # --- the vtkPolyDataAlgorithm habits ----------------------------------------------------
+    def SetInputData(self, image: vtkImageData) -> None:
+        """An image without a pipeline, as ``vtkAlgorithm::SetInputData``."""
+        self.SetInputDataObject(0, image)
+
+    def GetInput(self) -> vtkImageData | None:
+        """The image on the input port, as ``vtkAlgorithm::GetInput``."""
+        return self.GetInputDataObject(0, 0)
+
     def GetOutput(self) -> vtkPolyData:
         """The surface (after ``Update()``), as C++ filters' GetOutput."""
         return self.GetOutputDataObject(0)

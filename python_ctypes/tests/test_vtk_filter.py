@@ -135,6 +135,27 @@ def test_parameters_re_execute_and_an_unchanged_pipeline_does_not(oblique):
         assert hasattr(balloon, f"Set{name}") and hasattr(balloon, f"Get{name}")
 
 
+def test_set_input_data_gives_the_pipeline_s_surface(oblique):
+    """An image handed over with SetInputData, as to any vtkPolyDataAlgorithm, gives the same
+    surface as the same image through a connection."""
+    path, seed = oblique
+    source = reader_with_itk_direction(path)
+    source.Update()
+    image = source.GetOutput()
+    connected, handed = BalloonSegmentationFilter(), BalloonSegmentationFilter()
+    connected.SetInputConnection(source.GetOutputPort())
+    handed.SetInputData(image)
+    assert handed.GetInput() is image
+    for f in (connected, handed):
+        f.SetSeed(seed)
+        f.Update()
+    a = polydata_arrays(connected.GetOutput())
+    b = polydata_arrays(handed.GetOutput())
+    assert len(b[0]) > 0
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
+
+
 def test_the_extent_is_honoured(oblique):
     """A cropped image (extent not starting at 0) gives the surface of the same sphere."""
     path, seed = oblique
