@@ -1,7 +1,9 @@
-//! Where the real test scans live (`BALLOONSEG_DATA`, by default `../shared/data` beside the
-//! project) and what a test does when they are missing: on a developer's machine it says loudly
-//! that it skipped and returns; on CI (`CI=true`) it fails, because CI always has them.
-//! Public but hidden from the docs so that the integration tests in `tests/` share it.
+//! Where the real test scans live (`BALLOONSEG_DATA`, by default `../shared/data` from the
+//! working directory, which is the project's root for `cargo test` and `cargo bench`) and what a
+//! test does when they are missing: on a developer's machine it says loudly that it skipped and
+//! returns; on CI (`CI=true`) it fails, because CI always has them. Public but hidden from the
+//! docs so that the integration tests in `tests/` share it; the default is resolved at run time,
+//! so no path of the machine that built the library is baked into it.
 
 use std::io::Write;
 use std::path::PathBuf;
@@ -11,7 +13,7 @@ pub fn data_dir() -> Option<PathBuf> {
     let dir = std::env::var_os("BALLOONSEG_DATA")
         .filter(|v| !v.is_empty())
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data"));
+        .unwrap_or_else(|| PathBuf::from("../shared/data"));
     let ci = std::env::var("CI").as_deref() == Ok("true");
     let test = std::thread::current()
         .name()
