@@ -1,7 +1,9 @@
 """Loads libballoonseg and declares its C ABI (include/balloonseg.h) for ctypes.
 
 The library is looked up, in order, at ``$BALLOONSEG_LIBRARY``, in the repository's
-``target/release`` next to this package, and on the system path (``ctypes.util.find_library``).
+``target/release`` next to this package (a checkout, or an editable install), as the copy
+bundled in the package by ``pip install ./python_ctypes`` (setup.py), and on the system path
+(``ctypes.util.find_library``).
 Its major version must equal this package's. Every function gets its argtypes and restype here,
 so a wrong call is a Python TypeError, never a crash.
 """
@@ -184,9 +186,12 @@ def _candidates() -> list[str]:
     if env:
         return [env]
     found = []
-    repo_build = Path(__file__).resolve().parent.parent.parent / "target" / "release" / _FILE_NAME
-    if repo_build.exists():
-        found.append(str(repo_build))
+    here = Path(__file__).resolve().parent
+    repo_build = here.parent.parent / "target" / "release" / _FILE_NAME
+    bundled = here / _FILE_NAME
+    for path in (repo_build, bundled):
+        if path.exists():
+            found.append(str(path))
     system = ctypes.util.find_library("balloonseg")
     if system:
         found.append(system)
