@@ -5,19 +5,20 @@
 use std::mem::size_of;
 
 use super::boundary::{require, run, run_infallible, Failure};
-use super::mesh::{mesh_from_c, BalloonMesh, FlatMesh};
+use super::mesh::{mesh_from_c, view, BalloonMesh};
 use super::params::check_struct_size;
 use super::status::BalloonStatus;
 use super::volume::{volume_from_c, BalloonVolume};
 use crate::balloon::params::check_threads;
 use crate::error::Error;
 use crate::marching_cubes::marching_cubes;
+use crate::mesh::TriMesh;
 use crate::mesh_checks;
 use crate::self_intersection::self_intersections;
 
 /// A mesh made by a kernel (opaque), owned by the caller until balloon_trimesh_free.
 pub struct BalloonTriMesh {
-    mesh: FlatMesh,
+    mesh: TriMesh,
 }
 
 /// What balloon_mesh_check measures about a mesh.
@@ -68,9 +69,7 @@ pub unsafe extern "C" fn balloon_marching_cubes(
             .build()
             .map_err(|e| Error::invalid_argument(format!("cannot start {threads} threads: {e}")))?;
         let mesh = pool.install(|| marching_cubes(&volume, level))?;
-        let owned = Box::new(BalloonTriMesh {
-            mesh: FlatMesh::new(&mesh),
-        });
+        let owned = Box::new(BalloonTriMesh { mesh });
         // SAFETY: non-NULL and writable.
         unsafe { out.write(Box::into_raw(owned)) };
         Ok(())
@@ -91,7 +90,7 @@ pub unsafe extern "C" fn balloon_trimesh_view(
         let m = unsafe { m.as_ref() }.ok_or_else(|| Failure::null("m"))?;
         require(out, "out")?;
         // SAFETY: non-NULL and writable.
-        unsafe { out.write(m.mesh.view(std::ptr::null())) };
+        unsafe { out.write(view(&m.mesh, std::ptr::null())) };
         Ok(())
     })
 }

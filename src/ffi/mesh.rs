@@ -1,5 +1,6 @@
 //! Meshes at the boundary: flat `double` xyz and `uint32_t` triangle arrays, handed out as
-//! borrowed `BalloonMesh` views of library-owned buffers, or read from the caller's arrays.
+//! borrowed `BalloonMesh` views of the library's own `TriMesh` (no copy), or read from the
+//! caller's arrays.
 
 use glam::DVec3;
 
@@ -22,29 +23,20 @@ pub struct BalloonMesh {
     pub vertex_state: *const u8,
 }
 
-/// A mesh in the flat layout the views point into.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub(crate) struct FlatMesh {
-    pub points: Vec<f64>,
-    pub triangles: Vec<u32>,
-}
+// A view points straight into a `TriMesh`: its points are `DVec3`s, three `f64`s in a row.
+const _: () = assert!(
+    std::mem::size_of::<DVec3>() == 3 * std::mem::size_of::<f64>()
+        && std::mem::align_of::<DVec3>() == std::mem::align_of::<f64>()
+);
 
-impl FlatMesh {
-    pub fn new(mesh: &TriMesh) -> Self {
-        FlatMesh {
-            points: mesh.points().iter().flat_map(|p| p.to_array()).collect(),
-            triangles: mesh.triangles().iter().flatten().copied().collect(),
-        }
-    }
-
-    pub fn view(&self, vertex_state: *const u8) -> BalloonMesh {
-        BalloonMesh {
-            points: self.points.as_ptr(),
-            point_count: self.points.len() / 3,
-            triangles: self.triangles.as_ptr(),
-            triangle_count: self.triangles.len() / 3,
-            vertex_state,
-        }
+/// A view of `mesh`, with `vertex_state` (one per point, or NULL), without a copy.
+pub(crate) fn view(mesh: &TriMesh, vertex_state: *const u8) -> BalloonMesh {
+    BalloonMesh {
+        points: mesh.points().as_ptr().cast::<f64>(),
+        point_count: mesh.points().len(),
+        triangles: mesh.triangles().as_ptr().cast::<u32>(),
+        triangle_count: mesh.triangles().len(),
+        vertex_state,
     }
 }
 
@@ -110,8 +102,7 @@ mod tests {
     #[test]
     fn meshes_cross_the_boundary_unchanged_and_bad_ones_are_named() {
         let cube = crate::mesh::test_shapes::cube(DVec3::ZERO, DVec3::ONE);
-        let flat = FlatMesh::new(&cube);
-        let view = flat.view(std::ptr::null());
+        let view = view(&cube, std::ptr::null());
         let back = unsafe {
             mesh_from_c(
                 view.points,

@@ -1,16 +1,18 @@
 //! The opaque `BalloonSegmenter` handle: a [`Segmenter`] over the caller's voxels plus the
-//! flat copy of its current mesh that `balloon_mesh` hands out as a view. The copy is
-//! refreshed after every call that changes the balloon — also after a failed or cancelled one,
-//! when the balloon is still the consistent mesh of the last completed step — so that a
-//! `const` handle can give out pointers that stay valid until the next mutating call.
+//! mesh that `balloon_mesh` hands out as a view into it. Every call that changes the balloon
+//! drops that mesh — also a failed or cancelled one, after which the balloon is still the
+//! consistent mesh of the last completed step — and the next `balloon_mesh` makes it once, so
+//! that stepping costs no copy of the mesh and a `const` handle gives out pointers that stay
+//! valid until the next mutating call. `balloon_segment` keeps the mesh `segment` returned.
 
+use std::cell::OnceCell;
 use std::ffi::{c_char, c_int, c_void, CString};
 use std::mem::size_of;
 
 use glam::DVec3;
 
 use super::boundary::{require, run, run_infallible, Failure};
-use super::mesh::{BalloonMesh, FlatMesh};
+use super::mesh::{view, BalloonMesh};
 use super::params::{check_struct_size, params_from_c, BalloonParams};
 use super::status::BalloonStatus;
 use super::volume::{volume_from_c, BalloonVolume};
@@ -79,28 +81,47 @@ pub struct BalloonSegmenter {
     // Borrows the caller's voxels for 'static: balloon_init's contract keeps them alive until
     // balloon_free drops this.
     segmenter: Segmenter<'static, 'static>,
-    mesh: FlatMesh,
+    /// The balloon as balloon_mesh hands it out; empty after a change until asked for.
+    shown: OnceCell<ShownMesh>,
+}
+
+/// A mesh and its vertex states in the layout of the C views.
+struct ShownMesh {
+    mesh: TriMesh,
     states: Vec<u8>,
 }
 
-impl BalloonSegmenter {
-    fn cache(&mut self, (mesh, states): (TriMesh, Vec<VertexState>)) {
-        self.mesh = FlatMesh::new(&mesh);
-        self.states = states
+impl ShownMesh {
+    fn new((mesh, states): (TriMesh, Vec<VertexState>)) -> Self {
+        let states = states
             .into_iter()
             .map(|s| BalloonVertexState::from(s) as u8)
             .collect();
+        ShownMesh { mesh, states }
+    }
+}
+
+impl BalloonSegmenter {
+    fn new(segmenter: Segmenter<'static, 'static>) -> Self {
+        BalloonSegmenter {
+            segmenter,
+            shown: OnceCell::new(),
+        }
     }
 
-    /// Runs a call that changes the balloon, then refreshes the cached mesh whatever the outcome.
+    /// Runs a call that changes the balloon; the shown mesh is made again on demand, whatever
+    /// the outcome.
     fn mutate<T>(
         &mut self,
         call: impl FnOnce(&mut Segmenter<'static, 'static>) -> Result<T>,
     ) -> Result<T> {
-        let result = call(&mut self.segmenter);
-        let current = self.segmenter.mesh();
-        self.cache(current);
-        result
+        self.shown = OnceCell::new();
+        call(&mut self.segmenter)
+    }
+
+    fn shown(&self) -> &ShownMesh {
+        self.shown
+            .get_or_init(|| ShownMesh::new(self.segmenter.mesh()))
     }
 }
 
@@ -148,13 +169,7 @@ pub unsafe extern "C" fn balloon_init(
                 seed_from_c(seed_world)?,
             )
         };
-        let mut handle = BalloonSegmenter {
-            segmenter: Segmenter::new(volume, params, seed)?,
-            mesh: FlatMesh::default(),
-            states: Vec::new(),
-        };
-        let current = handle.segmenter.mesh();
-        handle.cache(current);
+        let handle = BalloonSegmenter::new(Segmenter::new(volume, params, seed)?);
         // SAFETY: non-NULL and writable.
         unsafe { out.write(Box::into_raw(Box::new(handle))) };
         Ok(())
@@ -248,7 +263,8 @@ pub unsafe extern "C" fn balloon_segment(s: *mut BalloonSegmenter) -> BalloonSta
     run(|| {
         // SAFETY: by the caller's promise.
         let h = unsafe { handle(s)? };
-        h.mutate(|segmenter| segmenter.segment())?;
+        let result = h.mutate(|segmenter| segmenter.segment())?;
+        h.shown = OnceCell::from(ShownMesh::new(result));
         Ok(())
     })
 }
@@ -268,8 +284,9 @@ pub unsafe extern "C" fn balloon_mesh(
         // SAFETY: by the caller's promise.
         let h = unsafe { s.as_ref() }.ok_or_else(|| Failure::null("s"))?;
         require(out, "out")?;
+        let shown = h.shown();
         // SAFETY: non-NULL and writable.
-        unsafe { out.write(h.mesh.view(h.states.as_ptr())) };
+        unsafe { out.write(view(&shown.mesh, shown.states.as_ptr())) };
         Ok(())
     })
 }
@@ -444,9 +461,10 @@ mod tests {
         assert!(safe.segment().is_err());
         safe.set_progress(None);
         let (mesh, states) = safe.segment().unwrap();
-        let expected = FlatMesh::new(&mesh);
-        assert_eq!(from_c.0, expected.points);
-        assert_eq!(from_c.1, expected.triangles);
+        let points: Vec<f64> = mesh.points().iter().flat_map(|p| p.to_array()).collect();
+        let triangles: Vec<u32> = mesh.triangles().iter().flatten().copied().collect();
+        assert_eq!(from_c.0, points);
+        assert_eq!(from_c.1, triangles);
         assert_eq!(
             from_c.2,
             states.iter().map(|&s| s as u8).collect::<Vec<_>>()
