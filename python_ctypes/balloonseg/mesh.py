@@ -33,8 +33,9 @@ class Mesh:
     def stats(self) -> dict:
         """The statistics of `balloonseg segment --stats`: the mesh check (vertices, triangles,
         euler_characteristic, genus, components, closed, manifold, oriented, outward,
-        self_intersecting_pairs, volume_mm3, area_mm2) and, for a segmentation, the run (iterations, reparametrizations,
-        reference_intensity, tolerance, edge_length_mm, seconds per phase and total)."""
+        self_intersecting_pairs, volume_mm3, area_mm2) and, for a segmentation, the run
+        (iterations, reparametrizations, reference_intensity, tolerance, edge_length_mm, seconds
+        per phase and total)."""
         if self._stats is None:
             self._stats = {**kernels.check(self.points, self.triangles), **self._run_stats}
         return self._stats
