@@ -31,6 +31,11 @@ pub(crate) fn write(
     out.flush().map_err(failed)
 }
 
+/// Creates (or truncates) `path` with `bytes` as its content.
+pub(crate) fn write_all(path: &Path, bytes: &[u8]) -> Result<()> {
+    write(path, |out| out.write_all(bytes))
+}
+
 /// Parses `bytes` with `parse` and puts the file name in front of any error.
 pub(crate) fn parse_file<T>(path: &Path, parse: impl FnOnce(&[u8]) -> Result<T>) -> Result<T> {
     let bytes = read(path)?;

@@ -21,9 +21,10 @@ use std::borrow::Cow;
 use std::path::Path;
 
 use super::compression::{inflate_exact, zlib};
+use super::files;
 use super::text_header::{
     beside, byte_count, concatenate_parts, fmt_list, geometry, has_suffix, line_at, lines_from,
-    number, numbers, read_file, sizes, take_bytes, write_file,
+    number, numbers, sizes, take_bytes,
 };
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
@@ -45,7 +46,7 @@ const ELEMENT_TYPES: [(&str, ScalarType); 10] = [
 
 /// Reads a `.mha` or `.mhd` image.
 pub fn read(path: &Path) -> Result<Image> {
-    let bytes = read_file(path)?;
+    let bytes = files::read(path)?;
     decode(&bytes, path).map_err(|e| e.context(path.display()))
 }
 
@@ -56,12 +57,12 @@ pub fn write(path: &Path, image: &Image) -> Result<()> {
     if has_suffix(path, "mhd") {
         let stem = path.file_stem().unwrap_or_default().to_string_lossy();
         let data_name = format!("{stem}.zraw");
-        write_file(&beside(path, &data_name), &data)?;
-        write_file(path, header_text(image, data.len(), &data_name).as_bytes())
+        files::write_all(&beside(path, &data_name), &data)?;
+        files::write_all(path, header_text(image, data.len(), &data_name).as_bytes())
     } else {
         let mut file = header_text(image, data.len(), "LOCAL").into_bytes();
         file.extend_from_slice(&data);
-        write_file(path, &file)
+        files::write_all(path, &file)
     }
 }
 
@@ -280,7 +281,7 @@ fn voxel_bytes<'a>(
              files one per line after ElementDataFile = LIST instead"
         )));
     }
-    let file = read_file(&beside(path, data_file))?;
+    let file = files::read(&beside(path, data_file))?;
     let part = detached(&file, header_size, expected, compressed, compressed_size)
         .map_err(|e| e.context(data_file))?;
     Ok(Cow::Owned(part.into_owned()))

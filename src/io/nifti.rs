@@ -25,9 +25,8 @@ use std::path::Path;
 use glam::{DMat3, DVec3};
 
 use super::compression::{check_ratio, gzip, inflate_prefix};
-use super::text_header::{
-    byte_count, geometry, geometry_from_axes, has_suffix, read_file, take_bytes, write_file,
-};
+use super::files;
+use super::text_header::{byte_count, geometry, geometry_from_axes, has_suffix, take_bytes};
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::volume::{Image, Scalar, ScalarType, VoxelBuffer};
@@ -56,7 +55,7 @@ const DATATYPES: [(i16, ScalarType); 8] = [
 
 /// Reads a `.nii` or `.nii.gz` image.
 pub fn read(path: &Path) -> Result<Image> {
-    let bytes = read_file(path)?;
+    let bytes = files::read(path)?;
     decode(&bytes).map_err(|e| e.context(path.display()))
 }
 
@@ -68,7 +67,7 @@ pub fn write(path: &Path, image: &Image) -> Result<()> {
     } else {
         nii
     };
-    write_file(path, &file)
+    files::write_all(path, &file)
 }
 
 pub(crate) fn decode(file: &[u8]) -> Result<Image> {

@@ -21,9 +21,10 @@ use std::borrow::Cow;
 use std::path::Path;
 
 use super::compression::{gzip, inflate_exact};
+use super::files;
 use super::text_header::{
     axes_of, beside, byte_count, concatenate_parts, fmt_list, geometry, geometry_from_axes,
-    has_suffix, line_at, lines_from, number, numbers, read_file, sizes, take_bytes, write_file,
+    has_suffix, line_at, lines_from, number, numbers, sizes, take_bytes,
 };
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
@@ -68,7 +69,7 @@ const TYPES: [(&str, ScalarType); 32] = [
 
 /// Reads a `.nrrd` or `.nhdr` image.
 pub fn read(path: &Path) -> Result<Image> {
-    let bytes = read_file(path)?;
+    let bytes = files::read(path)?;
     decode(&bytes, path).map_err(|e| e.context(path.display()))
 }
 
@@ -79,13 +80,13 @@ pub fn write(path: &Path, image: &Image) -> Result<()> {
     if has_suffix(path, "nhdr") {
         let stem = path.file_stem().unwrap_or_default().to_string_lossy();
         let data_name = format!("{stem}.raw.gz");
-        write_file(&beside(path, &data_name), &data)?;
+        files::write_all(&beside(path, &data_name), &data)?;
         let header = header_text(image) + &format!("data file: {data_name}\n");
-        write_file(path, header.as_bytes())
+        files::write_all(path, header.as_bytes())
     } else {
         let mut file = (header_text(image) + "\n").into_bytes();
         file.extend_from_slice(&data);
-        write_file(path, &file)
+        files::write_all(path, &file)
     }
 }
 
@@ -490,7 +491,7 @@ fn voxel_bytes<'a>(
              LIST with one file name per line"
         )));
     }
-    let file = read_file(&beside(path, data_file))?;
+    let file = files::read(&beside(path, data_file))?;
     let part = skip
         .apply(&file, expected)
         .map_err(|e| e.context(data_file))?;

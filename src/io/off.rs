@@ -12,31 +12,24 @@
 //! Writing uses the shortest decimal form that reads back to the same f64, so a mesh survives a
 //! write/read round trip bit for bit.
 
-use std::fs::File;
-use std::io::{BufRead, BufReader, BufWriter, Write};
+use std::io::{BufRead, Write};
 use std::path::Path;
 
 use glam::DVec3;
 
+use super::files;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 
-/// Reads an ASCII OFF file.
+/// Reads an ASCII OFF file. Its errors name the file and line themselves.
 pub fn read(path: &Path) -> Result<TriMesh> {
-    let file =
-        File::open(path).map_err(|e| Error::io(format!("cannot open {}: {e}", path.display())))?;
-    parse(
-        BufReader::with_capacity(1 << 20, file),
-        &path.display().to_string(),
-    )
+    let bytes = files::read(path)?;
+    parse(&bytes[..], &path.display().to_string())
 }
 
 /// Writes an ASCII OFF file with one triangle per face.
 pub fn write(path: &Path, mesh: &TriMesh) -> Result<()> {
-    let file = File::create(path)
-        .map_err(|e| Error::io(format!("cannot create {}: {e}", path.display())))?;
-    write_to(BufWriter::with_capacity(1 << 20, file), mesh)
-        .map_err(|e| Error::io(format!("cannot write {}: {e}", path.display())))
+    files::write(path, |w| write_to(w, mesh))
 }
 
 fn write_to(mut out: impl Write, mesh: &TriMesh) -> std::io::Result<()> {

@@ -1,5 +1,5 @@
-//! What the image readers and writers share: reading and writing whole files with errors that name
-//! them, the `key <separator> value` lines of the MetaImage and NRRD headers, number lists, number
+//! What the image readers and writers share (files themselves are read and written by `files`):
+//! the `key <separator> value` lines of the MetaImage and NRRD headers, number lists, number
 //! formatting that reads back bit for bit, the checked size of a voxel block, and the geometry
 //! built from the world vector of one step along each index axis (NRRD's `space directions`,
 //! NIfTI's affine columns).
@@ -10,15 +10,6 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::volume::ScalarType;
-
-pub(crate) fn read_file(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path).map_err(|e| Error::io(format!("cannot read {}: {e}", path.display())))
-}
-
-pub(crate) fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    std::fs::write(path, bytes)
-        .map_err(|e| Error::io(format!("cannot write {}: {e}", path.display())))
-}
 
 /// A data file named in a header: relative names are relative to the header's folder.
 pub(crate) fn beside(header: &Path, name: &str) -> PathBuf {
@@ -55,7 +46,7 @@ pub(crate) fn concatenate_parts(
     }
     let mut all = Vec::new();
     for name in names {
-        let file = read_file(&beside(header, name))?;
+        let file = super::files::read(&beside(header, name))?;
         all.extend_from_slice(&part(&file, expected / names.len()).map_err(|e| e.context(name))?);
     }
     Ok(all)
