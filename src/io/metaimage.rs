@@ -46,8 +46,7 @@ const ELEMENT_TYPES: [(&str, ScalarType); 10] = [
 
 /// Reads a `.mha` or `.mhd` image.
 pub fn read(path: &Path) -> Result<Image> {
-    let bytes = files::read(path)?;
-    decode(&bytes, path).map_err(|e| e.context(path.display()))
+    files::parse_file(path, |bytes| decode(bytes, path))
 }
 
 /// Writes `image` as `.mha` (data after the header) or, for a `.mhd` path, with the data in a

@@ -55,8 +55,7 @@ const DATATYPES: [(i16, ScalarType); 8] = [
 
 /// Reads a `.nii` or `.nii.gz` image.
 pub fn read(path: &Path) -> Result<Image> {
-    let bytes = files::read(path)?;
-    decode(&bytes).map_err(|e| e.context(path.display()))
+    files::parse_file(path, decode)
 }
 
 /// Writes `image` as NIfTI-1, gzip-compressed when the path ends with `.gz`.

@@ -69,8 +69,7 @@ const TYPES: [(&str, ScalarType); 32] = [
 
 /// Reads a `.nrrd` or `.nhdr` image.
 pub fn read(path: &Path) -> Result<Image> {
-    let bytes = files::read(path)?;
-    decode(&bytes, path).map_err(|e| e.context(path.display()))
+    files::parse_file(path, |bytes| decode(bytes, path))
 }
 
 /// Writes `image` gzip-encoded in LPS space: after the header for `.nrrd`, in a `.raw.gz` file
