@@ -1,6 +1,6 @@
 /*
  * balloonseg: seeded balloon segmentation of CT/MR volumes (C API).
- * Conventions (status codes, ownership, lifetimes, threads): README.md, section "C API".
+ * Conventions (status codes, ownership, lifetimes, threads): docs/interfaces.md, "C API".
  */
 
 #ifndef BALLOONSEG_H
@@ -15,7 +15,7 @@
 #define BALLOON_VERSION_MAJOR 0
 
 // Compatible additions.
-#define BALLOON_VERSION_MINOR 1
+#define BALLOON_VERSION_MINOR 2
 
 #define BALLOON_VERSION_PATCH 0
 
@@ -47,6 +47,14 @@ typedef enum BalloonStatus {
   // `balloon_free` is safe on a handle afterwards.
   BALLOON_PANIC = 10,
 } BalloonStatus;
+
+// The kind of a parameter's value.
+typedef enum BalloonParamKind {
+  // A real number (a `double` field).
+  BALLOON_PARAM_REAL = 0,
+  // A whole number (an unsigned integer field).
+  BALLOON_PARAM_INTEGER = 1,
+} BalloonParamKind;
 
 // The voxel types, as carried in `BalloonVolume::scalar_type`.
 typedef enum BalloonScalarType {
@@ -133,31 +141,57 @@ typedef struct BalloonMeshReport {
   double volume_mm3;
 } BalloonMeshReport;
 
-// The balloon's parameters. Fill with `balloon_params_default`, then change what you need.
+// One parameter, as `balloon_param_info` describes it. The strings are static and
+// NUL-terminated; never free them.
+typedef struct BalloonParamInfo {
+  // The caller sets it to sizeof(BalloonParamInfo) before calling balloon_param_info.
+  size_t struct_size;
+  // Its field in BalloonParams, and its name for balloon_params_get/balloon_params_set.
+  const char *name;
+  // The command line's flag, without the leading "--".
+  const char *flag;
+  enum BalloonParamKind kind;
+  // 1 when it may be left unset (NaN), meaning what `unset` says.
+  uint8_t optional;
+  // The default; NaN when it is unset by default.
+  double default_value;
+  // The smallest value allowed (-INFINITY when there is none); itself allowed when
+  // `minimum_inclusive` is 1.
+  double minimum;
+  uint8_t minimum_inclusive;
+  // The largest value allowed (INFINITY when there is none); itself allowed when
+  // `maximum_inclusive` is 1.
+  double maximum;
+  uint8_t maximum_inclusive;
+  // What is used when it is unset; "" when it cannot be.
+  const char *unset;
+  // What it does.
+  const char *doc;
+  // The values it takes, in words (as in the error for a value outside them).
+  const char *allowed;
+} BalloonParamInfo;
+
+// The balloon's parameters. Fill with `balloon_params_default`, then change what you need,
+// directly or by name with `balloon_params_set`. Each field's meaning, default and range is
+// in `balloon_param_info` (and docs/interfaces.md); NaN leaves reference_intensity, tolerance
+// and edge_length_mm unset, to be estimated around the first seed or taken from the volume.
 typedef struct BalloonParams {
   // sizeof(BalloonParams); set by balloon_params_default, checked by balloon_init.
   size_t struct_size;
-  // Intensity of the structure; NaN = estimate around the first seed.
   double reference_intensity;
-  // Half-width of the intensity window; NaN = estimate around the first seed.
   double tolerance;
-  // Target edge length in mm; NaN = the mean voxel spacing.
   double edge_length_mm;
   double elastic_weight;
   double bending_weight;
   double inflation_weight;
-  // Largest move of a vertex per step, as a fraction of the smallest spacing.
   double step_fraction;
   uint32_t max_iterations;
-  // Steps between two self-intersection searches.
   uint32_t self_intersection_interval;
-  // Steps of deformation after each re-parametrisation.
   uint32_t refinement_iterations;
   uint32_t max_reparametrizations;
-  // Leak guard: growing past this many vertices fails with BALLOON_LEAK.
+  // Growing past it fails with BALLOON_LEAK.
   uint64_t max_vertices;
-  // Worker threads of the segmenter's own pool; 0 = all cores. The result does not depend
-  // on it.
+  // 0 = all cores; the segmenter's own pool.
   uint32_t threads;
 } BalloonParams;
 
@@ -250,6 +284,37 @@ enum BalloonStatus balloon_self_intersections(const double *points,
                                               uint32_t *pairs_out,
                                               size_t pairs_capacity,
                                               size_t *pair_count_out);
+
+// The number of parameters: the fields of BalloonParams after struct_size.
+size_t balloon_param_count(void);
+
+// Describes parameter `index` (0 to balloon_param_count() - 1, in the order of
+// BalloonParams' fields) in `out`. The caller sets `out->struct_size` to
+// sizeof(BalloonParamInfo).
+//
+// # Safety
+// `out` must be NULL or point to a writable `BalloonParamInfo`.
+enum BalloonStatus balloon_param_info(size_t index, struct BalloonParamInfo *out);
+
+// Reads the parameter called `name` (a field of BalloonParams) from `params` into `value`;
+// NaN when it is unset. Whole numbers come back exactly up to 2^53.
+//
+// # Safety
+// `params` must be NULL or point to a readable `BalloonParams`, `name` NULL or a
+// NUL-terminated string, `value` NULL or writable.
+enum BalloonStatus balloon_params_get(const struct BalloonParams *params,
+                                      const char *name,
+                                      double *value);
+
+// Sets the parameter called `name` in `params` to `value` (NaN unsets an optional one),
+// after checking it against the parameter's kind and range; the other fields are left as
+// they are. A value outside the range is BALLOON_INVALID_ARGUMENT, with a message that says
+// what to give, and leaves `params` unchanged.
+//
+// # Safety
+// `params` must be NULL or point to a writable `BalloonParams`, `name` NULL or a
+// NUL-terminated string.
+enum BalloonStatus balloon_params_set(struct BalloonParams *params, const char *name, double value);
 
 // Writes the default parameters (with struct_size set) to `out`.
 //

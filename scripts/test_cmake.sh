@@ -30,12 +30,13 @@ rm -rf "$prefix"
 cmake --install "$build/package" --prefix "$prefix"
 lib="$prefix/lib"
 [ "$(readlink "$lib/libballoonseg.so")" = libballoonseg.so.0 ]
-[ "$(readlink "$lib/libballoonseg.so.0")" = libballoonseg.so.0.1.0 ]
-[ -f "$lib/libballoonseg.so.0.1.0" ] && [ -f "$lib/libballoonseg.a" ]
+version=$(sed -n 's/^version = "\(.*\)"$/\1/p' Cargo.toml | head -1)
+[ "$(readlink "$lib/libballoonseg.so.0")" = "libballoonseg.so.$version" ]
+[ -f "$lib/libballoonseg.so.$version" ] && [ -f "$lib/libballoonseg.a" ]
 [ -f "$prefix/include/balloonseg.h" ] && [ -f "$prefix/include/vtkBalloonSegmentation.h" ]
 [ -f "$lib/cmake/BalloonSeg/BalloonSegConfig.cmake" ]
 [ -f "$lib/cmake/BalloonSeg/BalloonSegConfigVersion.cmake" ]
-soname=$(objdump -p "$lib/libballoonseg.so.0.1.0" | awk '/SONAME/ {print $2}')
+soname=$(objdump -p "$lib/libballoonseg.so.$version" | awk '/SONAME/ {print $2}')
 [ "$soname" = libballoonseg.so.0 ] || { echo "SONAME is '$soname', expected libballoonseg.so.0" >&2; exit 1; }
 needed=$(objdump -p "$lib/libvtkBalloonSegmentation.so" | awk '/NEEDED.*balloonseg/ {print $2}')
 [ "$needed" = libballoonseg.so.0 ] || { echo "the filter needs '$needed'" >&2; exit 1; }

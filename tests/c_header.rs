@@ -42,3 +42,28 @@ fn header_is_current() {
         );
     }
 }
+
+/// The parameter table's names are BalloonParams' fields, in order: `balloon_params_set` and
+/// the bindings that build their setters from the table reach the field of the same name.
+#[test]
+fn the_parameter_table_names_the_c_fields_in_order() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let header = std::fs::read_to_string(root.join("include/balloonseg.h")).expect("the header");
+    let body = header
+        .split("typedef struct BalloonParams {")
+        .nth(1)
+        .and_then(|rest| rest.split("} BalloonParams;").next())
+        .expect("BalloonParams in the header");
+    let fields: Vec<&str> = body
+        .lines()
+        .map(str::trim)
+        .filter(|line| !line.is_empty() && !line.starts_with("//"))
+        .filter_map(|line| line.strip_suffix(';')?.split_whitespace().last())
+        .collect();
+    let names: Vec<&str> = balloonseg::balloon::params::PARAMETERS
+        .iter()
+        .map(|p| p.name)
+        .collect();
+    assert_eq!(fields.first(), Some(&"struct_size"));
+    assert_eq!(fields[1..], names[..]);
+}

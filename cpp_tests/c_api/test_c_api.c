@@ -56,6 +56,56 @@ static void test_params(void) {
         "defaults");
 }
 
+static void test_param_table(void) {
+  size_t count = balloon_param_count();
+  CHECK(count == 13, "%zu parameters", count);
+  BalloonParams p;
+  EXPECT_OK(balloon_params_default(&p));
+  int seen_step_fraction = 0;
+  for (size_t i = 0; i < count; ++i) {
+    BalloonParamInfo info;
+    info.struct_size = sizeof info;
+    EXPECT_OK(balloon_param_info(i, &info));
+    CHECK(info.name && *info.name && info.doc && *info.doc && info.allowed && info.unset,
+          "parameter %zu has its texts", i);
+    CHECK(info.minimum <= info.maximum, "%s: range", info.name);
+    double value = 0;
+    EXPECT_OK(balloon_params_get(&p, info.name, &value));
+    CHECK((isnan(value) && info.optional) || value == info.default_value,
+          "%s: default %g, table %g", info.name, value, info.default_value);
+    if (strcmp(info.name, "step_fraction") == 0) {
+      seen_step_fraction = 1;
+      CHECK(info.kind == BALLOON_PARAM_REAL && info.minimum == 0 && !info.minimum_inclusive &&
+                info.maximum == 1 && info.maximum_inclusive,
+            "step_fraction is a real in (0, 1]");
+    }
+  }
+  CHECK(seen_step_fraction, "the table has step_fraction");
+  BalloonParamInfo info;
+  info.struct_size = sizeof info;
+  EXPECT_ERROR(balloon_param_info(count, &info), BALLOON_INVALID_ARGUMENT, "out of range");
+  EXPECT_ERROR(balloon_param_info(0, NULL), BALLOON_NULL_POINTER, "out");
+  info.struct_size = 8;
+  EXPECT_ERROR(balloon_param_info(0, &info), BALLOON_PARAMS_SIZE_MISMATCH, "BalloonParamInfo");
+
+  EXPECT_OK(balloon_params_set(&p, "max_iterations", 25));
+  CHECK(p.max_iterations == 25, "set by name reaches the field: %u", p.max_iterations);
+  EXPECT_OK(balloon_params_set(&p, "tolerance", 80));
+  CHECK(p.tolerance == 80, "tolerance %g", p.tolerance);
+  EXPECT_OK(balloon_params_set(&p, "tolerance", NAN));
+  CHECK(isnan(p.tolerance), "NaN unsets an optional parameter");
+  EXPECT_ERROR(balloon_params_set(&p, "max_iterations", 2.5), BALLOON_INVALID_ARGUMENT,
+               "whole number");
+  EXPECT_ERROR(balloon_params_set(&p, "step_fraction", NAN), BALLOON_INVALID_ARGUMENT, "(0, 1]");
+  EXPECT_ERROR(balloon_params_set(&p, "no_such", 1), BALLOON_INVALID_ARGUMENT, "tolerance");
+  EXPECT_ERROR(balloon_params_set(NULL, "tolerance", 1), BALLOON_NULL_POINTER, "params");
+  EXPECT_ERROR(balloon_params_set(&p, NULL, 1), BALLOON_NULL_POINTER, "name");
+  double value;
+  EXPECT_ERROR(balloon_params_get(&p, "max_iterations", NULL), BALLOON_NULL_POINTER, "value");
+  EXPECT_ERROR(balloon_params_get(&p, NULL, &value), BALLOON_NULL_POINTER, "name");
+  CHECK(p.max_iterations == 25, "a refused value changes nothing");
+}
+
 static void test_init_errors(void) {
   void *buffer = NULL;
   BalloonVolume good = ball_volume(&BALL, 1, BALLOON_SCALAR_I16, I_FASTEST, &buffer);
@@ -449,6 +499,7 @@ int main(void) {
   test_version_and_status_strings();
   test_last_error_message();
   test_params();
+  test_param_table();
   test_init_errors();
   test_driven_by_hand();
   test_cancel();

@@ -129,8 +129,21 @@ void every_function_once() {
   BalloonParams p;
   EXPECT_OK(balloon_params_default(&p));
   EXPECT_ERROR(balloon_params_default(nullptr), BALLOON_NULL_POINTER, "out");
-  p.reference_intensity = 200;
-  p.tolerance = 100;
+  // The parameters by name, as a binding that builds its setters from the table would.
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < balloon_param_count(); ++i) {
+    BalloonParamInfo info{};
+    info.struct_size = sizeof info;
+    EXPECT_OK(balloon_param_info(i, &info));
+    names.emplace_back(info.name);
+  }
+  CHECK(names.size() == 13 && names.front() == "reference_intensity" && names.back() == "threads",
+        "%zu parameters", names.size());
+  EXPECT_OK(balloon_params_set(&p, "reference_intensity", 200));
+  EXPECT_OK(balloon_params_set(&p, "tolerance", 100));
+  double tolerance = 0;
+  EXPECT_OK(balloon_params_get(&p, "tolerance", &tolerance));
+  CHECK(p.reference_intensity == 200 && tolerance == 100, "set by name");
   double seed[3];
   index_to_world(&kBall, seed);
   BalloonSegmenter *raw = nullptr;

@@ -26,9 +26,16 @@ from .errors import (
 )
 from .kernels import check, marching_cubes, self_intersections
 from .mesh import Mesh
-from .segmenter import PARAMETERS, Segmenter, default_params, segment
+from .segmenter import (
+    PARAMETERS,
+    ParameterInfo,
+    Segmenter,
+    default_params,
+    parameter_info,
+    segment,
+)
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
     "BalloonError",
@@ -43,6 +50,7 @@ __all__ = [
     "NullPointerError",
     "PARAMETERS",
     "PanicError",
+    "ParameterInfo",
     "ParamsSizeMismatchError",
     "Segmenter",
     "UnknownParameterError",
@@ -50,6 +58,7 @@ __all__ = [
     "check",
     "default_params",
     "marching_cubes",
+    "parameter_info",
     "segment",
     "self_intersections",
     "version",

@@ -35,9 +35,13 @@ from pathlib import Path
 from .errors import BalloonError, error_for_status
 
 #: The version of the C ABI this package is written against.
-ABI_VERSION = (0, 1, 0)
+ABI_VERSION = (0, 2, 0)
 
 OK = 0
+
+#: BalloonParamKind's values.
+PARAM_REAL = 0
+PARAM_INTEGER = 1
 BUFFER_TOO_SMALL = 6
 CANCELLED = 7
 
@@ -81,6 +85,24 @@ class BalloonParams(Structure):
         ("max_reparametrizations", c_uint32),
         ("max_vertices", c_uint64),
         ("threads", c_uint32),
+    ]
+
+
+class BalloonParamInfo(Structure):
+    _fields_ = [
+        ("struct_size", c_size_t),
+        ("name", c_char_p),
+        ("flag", c_char_p),
+        ("kind", c_uint32),
+        ("optional", c_uint8),
+        ("default_value", c_double),
+        ("minimum", c_double),
+        ("minimum_inclusive", c_uint8),
+        ("maximum", c_double),
+        ("maximum_inclusive", c_uint8),
+        ("unset", c_char_p),
+        ("doc", c_char_p),
+        ("allowed", c_char_p),
     ]
 
 
@@ -136,6 +158,10 @@ _Triple = POINTER(c_double)
 
 _SIGNATURES = {
     "balloon_params_default": (_Status, [POINTER(BalloonParams)]),
+    "balloon_param_count": (c_size_t, []),
+    "balloon_param_info": (_Status, [c_size_t, POINTER(BalloonParamInfo)]),
+    "balloon_params_get": (_Status, [POINTER(BalloonParams), c_char_p, POINTER(c_double)]),
+    "balloon_params_set": (_Status, [POINTER(BalloonParams), c_char_p, c_double]),
     "balloon_init": (
         _Status,
         [POINTER(BalloonVolume), POINTER(BalloonParams), _Triple, POINTER(_Segmenter)],

@@ -4,6 +4,8 @@ with a progress callback that may cancel; ``segment`` for the one-call case."""
 from __future__ import annotations
 
 import ctypes
+import functools
+from typing import NamedTuple
 
 import numpy as np
 
@@ -13,12 +15,62 @@ from .errors import InvalidArgumentError, PanicError, UnknownParameterError
 from .kernels import mesh_from_view
 from .mesh import Mesh
 
-#: The balloon's parameters (BalloonParams' fields) and their Python types.
+#: The balloon's parameters (BalloonParams' fields) and their Python types; what each one
+#: means, its default and its range: :func:`parameter_info`.
 PARAMETERS = {
     name: (float if ctype is ctypes.c_double else int)
     for name, ctype in L.BalloonParams._fields_
     if name != "struct_size"
 }
+
+
+class ParameterInfo(NamedTuple):
+    """One parameter as the library's table describes it (``balloon_param_info``)."""
+
+    name: str
+    #: The command line's flag, without the leading ``--``.
+    flag: str
+    #: ``float`` or ``int``.
+    type: type
+    #: Whether it may be left unset (None), meaning what ``unset`` says.
+    optional: bool
+    #: The default; NaN when it is unset by default.
+    default: float
+    minimum: float
+    minimum_inclusive: bool
+    maximum: float
+    maximum_inclusive: bool
+    unset: str
+    doc: str
+    #: The values it takes, in words.
+    allowed: str
+
+
+@functools.lru_cache(maxsize=None)
+def parameter_info() -> dict[str, ParameterInfo]:
+    """Every parameter, by name, in the order of BalloonParams' fields: its meaning, default and
+    range from the library itself."""
+    lib = L.library()
+    table = {}
+    for index in range(lib.balloon_param_count()):
+        info = L.BalloonParamInfo(struct_size=ctypes.sizeof(L.BalloonParamInfo))
+        L.check(lib.balloon_param_info(index, ctypes.byref(info)))
+        name = info.name.decode()
+        table[name] = ParameterInfo(
+            name=name,
+            flag=info.flag.decode(),
+            type=float if info.kind == L.PARAM_REAL else int,
+            optional=bool(info.optional),
+            default=info.default_value,
+            minimum=info.minimum,
+            minimum_inclusive=bool(info.minimum_inclusive),
+            maximum=info.maximum,
+            maximum_inclusive=bool(info.maximum_inclusive),
+            unset=info.unset.decode(),
+            doc=info.doc.decode(),
+            allowed=info.allowed.decode(),
+        )
+    return table
 
 
 def default_params() -> dict:
@@ -30,26 +82,30 @@ def default_params() -> dict:
 
 
 def _params_struct(overrides: dict) -> L.BalloonParams:
+    """The defaults with ``overrides`` set by name through the library, which checks each value
+    against its range (None keeps the default)."""
     unknown = sorted(set(overrides) - set(PARAMETERS))
     if unknown:
         raise UnknownParameterError(
             f"unknown balloon parameter{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; "
             f"the parameters are {', '.join(PARAMETERS)}"
         )
+    lib = L.library()
     params = L.BalloonParams()
-    L.check(L.library().balloon_params_default(ctypes.byref(params)))
+    L.check(lib.balloon_params_default(ctypes.byref(params)))
     for name, value in overrides.items():
         if value is not None:
-            setattr(params, name, _parameter_value(name, value))
+            number = _number(name, value)
+            L.check(lib.balloon_params_set(ctypes.byref(params), name.encode(), number))
     return params
 
 
-def _parameter_value(name: str, value):
-    if PARAMETERS[name] is int:
-        return unsigned(name, value, 2**64 if name == "max_vertices" else 2**32)
+def _number(name: str, value) -> float:
+    if isinstance(value, bool):
+        raise InvalidArgumentError(f"{name} must be a number, got {value!r}")
     try:
         return float(value)
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:
         raise InvalidArgumentError(f"{name} must be a number, got {value!r}") from e
 
 

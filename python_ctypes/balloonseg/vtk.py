@@ -20,23 +20,12 @@ from vtkmodules.vtkCommonCore import vtkCommand, vtkOutputWindow
 from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPolyData
 
 from .errors import BalloonError, CancelledError, InvalidArgumentError
-from .segmenter import Segmenter
+from .segmenter import PARAMETERS, Segmenter
 
-#: VTK-style parameter name -> BalloonParams field.
+#: VTK-style parameter name -> BalloonParams field: ``Set``/``Get`` plus the field's name in
+#: CamelCase, as the C++ vtkBalloonSegmentation names them.
 FILTER_PARAMETERS = {
-    "ReferenceIntensity": "reference_intensity",
-    "Tolerance": "tolerance",
-    "EdgeLength": "edge_length_mm",
-    "ElasticWeight": "elastic_weight",
-    "BendingWeight": "bending_weight",
-    "InflationWeight": "inflation_weight",
-    "StepFraction": "step_fraction",
-    "MaxIterations": "max_iterations",
-    "SelfIntersectionInterval": "self_intersection_interval",
-    "RefinementIterations": "refinement_iterations",
-    "MaxReparametrizations": "max_reparametrizations",
-    "MaxVertices": "max_vertices",
-    "NumberOfThreads": "threads",
+    "".join(part.capitalize() for part in field.split("_")): field for field in PARAMETERS
 }
 
 

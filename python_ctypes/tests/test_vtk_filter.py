@@ -123,12 +123,12 @@ def test_parameters_re_execute_and_an_unchanged_pipeline_does_not(oblique):
     balloon.SetTolerance(None)
     balloon.Update()
     assert balloon.ExecutionCount == 1, "re-executed without a change"
-    balloon.SetEdgeLength(2.5)
-    assert balloon.GetEdgeLength() == 2.5
+    balloon.SetEdgeLengthMm(2.5)
+    assert balloon.GetEdgeLengthMm() == 2.5
     balloon.Update()
     assert balloon.ExecutionCount == 2
     assert balloon.GetOutput().GetNumberOfPoints() < first
-    balloon.SetEdgeLength(None)
+    balloon.SetEdgeLengthMm(None)
     balloon.Update()
     assert balloon.ExecutionCount == 3 and balloon.GetOutput().GetNumberOfPoints() == first
     for name in FILTER_PARAMETERS:

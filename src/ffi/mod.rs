@@ -33,6 +33,7 @@
 mod boundary;
 mod kernels;
 mod mesh;
+mod param_info;
 mod params;
 mod segmenter;
 mod status;
@@ -45,6 +46,10 @@ pub use kernels::{
     balloon_trimesh_view, BalloonMeshReport, BalloonTriMesh,
 };
 pub use mesh::BalloonMesh;
+pub use param_info::{
+    balloon_param_count, balloon_param_info, balloon_params_get, balloon_params_set,
+    BalloonParamInfo, BalloonParamKind,
+};
 pub use params::{balloon_params_default, BalloonParams};
 pub use segmenter::{
     balloon_add_seed, balloon_free, balloon_freeze_self_intersections, balloon_init, balloon_mesh,

@@ -1,6 +1,6 @@
-//! `BalloonParams`, the C layout of [`balloon::BalloonParams`]: NaN stands for "not given"
-//! in the optional values, and `struct_size` lets the library reject a caller compiled
-//! against another layout instead of misreading it.
+//! `BalloonParams`, the C layout of [`balloon::BalloonParams`] (whose table, `PARAMETERS`,
+//! documents each field): NaN stands for "not given" in the optional values, and `struct_size`
+//! lets the library reject a caller compiled against another layout instead of misreading it.
 
 use std::mem::size_of;
 
@@ -9,33 +9,29 @@ use super::status::BalloonStatus;
 use crate::balloon::{self, forces::ForceWeights};
 use crate::error::Error;
 
-/// The balloon's parameters. Fill with `balloon_params_default`, then change what you need.
+/// The balloon's parameters. Fill with `balloon_params_default`, then change what you need,
+/// directly or by name with `balloon_params_set`. Each field's meaning, default and range is
+/// in `balloon_param_info` (and docs/interfaces.md); NaN leaves reference_intensity, tolerance
+/// and edge_length_mm unset, to be estimated around the first seed or taken from the volume.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BalloonParams {
     /// sizeof(BalloonParams); set by balloon_params_default, checked by balloon_init.
     pub struct_size: usize,
-    /// Intensity of the structure; NaN = estimate around the first seed.
     pub reference_intensity: f64,
-    /// Half-width of the intensity window; NaN = estimate around the first seed.
     pub tolerance: f64,
-    /// Target edge length in mm; NaN = the mean voxel spacing.
     pub edge_length_mm: f64,
     pub elastic_weight: f64,
     pub bending_weight: f64,
     pub inflation_weight: f64,
-    /// Largest move of a vertex per step, as a fraction of the smallest spacing.
     pub step_fraction: f64,
     pub max_iterations: u32,
-    /// Steps between two self-intersection searches.
     pub self_intersection_interval: u32,
-    /// Steps of deformation after each re-parametrisation.
     pub refinement_iterations: u32,
     pub max_reparametrizations: u32,
-    /// Leak guard: growing past this many vertices fails with BALLOON_LEAK.
+    /// Growing past it fails with BALLOON_LEAK.
     pub max_vertices: u64,
-    /// Worker threads of the segmenter's own pool; 0 = all cores. The result does not depend
-    /// on it.
+    /// 0 = all cores; the segmenter's own pool.
     pub threads: u32,
 }
 

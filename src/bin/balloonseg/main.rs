@@ -6,6 +6,7 @@ mod check;
 mod demo;
 mod distance;
 mod isosurface;
+mod param_flags;
 mod phantom;
 mod render;
 mod segment;
@@ -51,6 +52,9 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if let Err(e) = balloonseg::balloon::params::check_threads(cli.threads) {
+        return fail(&e.to_string());
+    }
     let pool = match rayon::ThreadPoolBuilder::new()
         .num_threads(cli.threads)
         .build()

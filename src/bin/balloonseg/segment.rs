@@ -7,12 +7,14 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use balloonseg::balloon::seed_statistics::{Neighbours, RAYS};
-use balloonseg::balloon::{BalloonParams, Phase, SegmentationStats, Segmenter, VertexState};
+use balloonseg::balloon::{Phase, SegmentationStats, Segmenter, VertexState};
 use balloonseg::io::{self, PointData, PointValues};
 use balloonseg::render::{self, RenderOptions};
 use balloonseg::{mesh_checks, self_intersection::self_intersections, Error, Geometry, Result};
 use glam::DVec3;
 use serde_json::json;
+
+use crate::param_flags::ParamFlags;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -36,73 +38,12 @@ pub struct Args {
     /// the mesh's section, and a 3D view.
     #[arg(long)]
     png: Option<PathBuf>,
-    /// Intensity of the structure (default: estimated around the first seed).
-    #[arg(long, allow_negative_numbers = true)]
-    reference: Option<f64>,
-    /// Half-width of the intensity window (default: from the reference to the structure's
-    /// steepest edge along rays from the first seed).
-    #[arg(long)]
-    tolerance: Option<f64>,
-    /// Target edge length in mm (default: the mean voxel spacing).
-    #[arg(long)]
-    edge_length: Option<f64>,
-    /// Weight of the elastic (spring) force.
-    #[arg(long)]
-    elastic: Option<f64>,
-    /// Weight of the bending force.
-    #[arg(long)]
-    bending: Option<f64>,
-    /// Weight of the inflation force.
-    #[arg(long)]
-    inflation: Option<f64>,
-    /// Largest move of a vertex per step, as a fraction of the smallest spacing.
-    #[arg(long)]
-    step_fraction: Option<f64>,
-    /// Inflation steps before the balloon is taken as it is.
-    #[arg(long)]
-    max_iterations: Option<u32>,
-    /// Steps between self-intersection searches.
-    #[arg(long)]
-    self_intersection_interval: Option<u32>,
-    /// Deformation steps after each re-parametrisation.
-    #[arg(long)]
-    refinement_iterations: Option<u32>,
-    /// Re-parametrisations before the marching-cubes surface is returned as it is.
-    #[arg(long)]
-    max_reparametrizations: Option<u32>,
-    /// Leak guard: growing past this many vertices is an error.
-    #[arg(long)]
-    max_vertices: Option<usize>,
+    /// The balloon's parameters, one flag each (see docs/interfaces.md).
+    #[command(flatten)]
+    params: ParamFlags,
 }
 
 impl Args {
-    fn params(&self, threads: usize) -> BalloonParams {
-        let d = BalloonParams::default();
-        BalloonParams {
-            reference: self.reference,
-            tolerance: self.tolerance,
-            edge_length: self.edge_length,
-            weights: balloonseg::balloon::forces::ForceWeights {
-                elastic: self.elastic.unwrap_or(d.weights.elastic),
-                bending: self.bending.unwrap_or(d.weights.bending),
-                inflation: self.inflation.unwrap_or(d.weights.inflation),
-            },
-            step_fraction: self.step_fraction.unwrap_or(d.step_fraction),
-            max_iterations: self.max_iterations.unwrap_or(d.max_iterations),
-            self_intersection_interval: self
-                .self_intersection_interval
-                .unwrap_or(d.self_intersection_interval),
-            refinement_iterations: self
-                .refinement_iterations
-                .unwrap_or(d.refinement_iterations),
-            max_reparametrizations: self
-                .max_reparametrizations
-                .unwrap_or(d.max_reparametrizations),
-            max_vertices: self.max_vertices.unwrap_or(d.max_vertices),
-            threads,
-        }
-    }
-
     fn seed_world(&self, seed: [f64; 3], geometry: &Geometry) -> DVec3 {
         let s = DVec3::from(seed);
         if self.index {
@@ -124,7 +65,7 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
         .iter()
         .map(|&s| args.seed_world(s, &geometry))
         .collect();
-    let mut segmenter = Segmenter::new(image.view(), args.params(threads), seeds[0])?;
+    let mut segmenter = Segmenter::new(image.view(), args.params.params(threads)?, seeds[0])?;
     for &seed in &seeds[1..] {
         segmenter.add_seed(seed)?;
     }
