@@ -1,28 +1,33 @@
-//! The balloon of the paper (section 2): a closed triangulated surface that starts as a small
-//! sphere at a seed and is inflated by per-vertex forces. `surface` holds its dynamic mesh — a
-//! half-edge structure whose edges are split when they grow too long and collapsed when they
-//! become too short, always staying a closed, oriented 2-manifold — on which the forces work.
+//! The balloon of the paper (docs/method.md maps its sections to these modules): a closed
+//! triangulated surface that starts as a small sphere at each seed and is inflated by
+//! per-vertex forces until it meets the structure's border or itself.
+//!
+//! | the paper | here |
+//! |---|---|
+//! | the balloon's dynamic mesh (section 2, Figure 1) | [`surface`]: the half-edge mesh, its remeshing and its moving front |
+//! | where it may go (section 2's reference value and threshold) | [`image_model`]: the intensity window from the seed, and the border rule |
+//! | step 1, inflation (section 2) | [`inflation`]: forces, steps, the leak guard, equilibrium |
+//! | step 2, contacts and freezing (section 3) | `contacts`: the contact search, folds told from contacts |
+//! | step 3, re-parametrisation (section 3) | `reparametrization`: signed distance and marching cubes |
+//! | step 4, refinement (section 3) | [`inflation`] again, from the new surface |
+//! | what follows | `finishing`: the touching cut, fairing, settling, the curvature offset, validation |
+//!
+//! [`Segmenter`] drives them (`segmenter`), step by step or to completion, with [`params`] and
+//! [`progress`].
 
-pub mod border;
-mod contact_search;
-mod curvature_offset;
-mod fairing;
+mod contacts;
 mod fast_hash;
-pub mod forces;
-mod front;
-mod hounsfield;
-mod inflation;
+mod finishing;
+pub mod image_model;
+pub mod inflation;
 pub mod params;
-mod remesh;
-mod reparametrize;
-pub mod seed_statistics;
+pub mod progress;
+mod reparametrization;
 mod segmenter;
-mod settling;
 pub mod surface;
-mod thin_layer;
-mod touching;
-mod untangle;
 
+pub use inflation::forces::ForceWeights;
 pub use params::BalloonParams;
-pub use segmenter::{Phase, PhaseSeconds, ProgressCallback, SegmentationStats, Segmenter};
+pub use progress::{Phase, PhaseSeconds, ProgressCallback};
+pub use segmenter::{SegmentationStats, Segmenter};
 pub use surface::VertexState;

@@ -7,7 +7,7 @@
 
 use std::ops::Bound::{self, Excluded, Included, Unbounded};
 
-use super::forces::ForceWeights;
+use crate::balloon::inflation::forces::ForceWeights;
 use crate::error::{Error, Result};
 
 /// Parameters of [`super::Segmenter`]; each field's meaning and range is its entry in

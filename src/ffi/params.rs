@@ -6,7 +6,7 @@ use std::mem::size_of;
 
 use super::boundary::{require, run, Failure};
 use super::status::BalloonStatus;
-use crate::balloon::{self, forces::ForceWeights};
+use crate::balloon::{self, ForceWeights};
 use crate::error::Error;
 
 /// The balloon's parameters. Fill with `balloon_params_default`, then change what you need,

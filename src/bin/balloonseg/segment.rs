@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use balloonseg::balloon::seed_statistics::{Neighbours, RAYS};
+use balloonseg::balloon::image_model::seed_statistics::{Neighbours, RAYS};
 use balloonseg::balloon::{Phase, SegmentationStats, Segmenter, VertexState};
 use balloonseg::io::{self, PointData, PointValues};
 use balloonseg::render::{self, RenderOptions};

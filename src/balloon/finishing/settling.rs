@@ -45,8 +45,8 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::border::{Border, ImageScales, STEP_SAMPLES};
-use super::surface::{Surface, VertexState};
+use crate::balloon::image_model::border::{Border, ImageScales, STEP_SAMPLES};
+use crate::balloon::surface::{Surface, VertexState};
 
 /// Tissue ahead darker than the soft tissue by this share of the structure's contrast to it is
 /// fat or lung, not soft tissue at a level the window's lower end was raised to keep out.
@@ -55,7 +55,7 @@ const DARKER_THAN_SOFT: f64 = 0.25;
 const STEPS_PER_VOXEL: usize = 8;
 
 /// What [`settle`] did.
-pub(super) struct Settled {
+pub(in crate::balloon) struct Settled {
     /// The vertices moved onto crests.
     pub crested: Vec<u32>,
     /// By slot: whether the vertex lies on an edge against tissue darker than the window's
@@ -68,7 +68,7 @@ pub(super) struct Settled {
 /// within its reach, or else onto the local half level where the tissue ahead is
 /// background: in CT (`soft`, the soft tissue's HU) darker than the soft tissue, otherwise
 /// below the window (see the module's comment). The same result for any thread count.
-pub(super) fn settle(
+pub(in crate::balloon) fn settle(
     surface: &mut Surface,
     image: &ImageScales<'_>,
     border: &Border,
@@ -189,7 +189,7 @@ fn settled(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::balloon::border::IntensityWindow;
+    use crate::balloon::image_model::border::IntensityWindow;
     use crate::volume::Image;
 
     /// A structure at `inside` for x < 12 against `outside` beyond (1 mm voxels).

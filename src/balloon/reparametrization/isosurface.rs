@@ -25,8 +25,8 @@ use std::collections::HashMap;
 use glam::{DVec3, I64Vec3};
 use rayon::prelude::*;
 
-use super::fast_hash::FastHash;
-use super::surface::VertexState;
+use crate::balloon::fast_hash::FastHash;
+use crate::balloon::surface::VertexState;
 use crate::digital_topology::euler_characteristic;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
@@ -148,7 +148,7 @@ fn fill_passable_gaps(
 /// Moves outside the components of the inside of `field` (6-connected grid points) that hold
 /// no seed: the grid points next to each seed decide, and if no seed finds the inside (it
 /// always should), the largest component stays.
-pub(super) fn keep_seeded_components(
+pub(in crate::balloon) fn keep_seeded_components(
     field: &mut [f64],
     dims: [usize; 3],
     grid: &Geometry,
@@ -206,7 +206,7 @@ fn grid_point(n: usize, dims: [usize; 3]) -> DVec3 {
 /// the state of the nearest old vertex within `reach` (mm), so that parts of the balloon that
 /// were still moving say so; a contact, resolved by the re-parametrisation, becomes
 /// `FrozenAtBorder`, as does a vertex with no old vertex that near.
-pub(super) fn inherited_states(
+pub(in crate::balloon) fn inherited_states(
     old: &TriMesh,
     states: &[VertexState],
     new: &TriMesh,
@@ -240,7 +240,7 @@ pub(super) fn inherited_states(
 }
 
 /// The surface `field = level` (outward: the field grows outward).
-pub(super) fn isosurface(
+pub(in crate::balloon) fn isosurface(
     field: Vec<f64>,
     dims: [usize; 3],
     grid: &Geometry,
@@ -263,7 +263,7 @@ pub(super) fn isosurface(
 
 /// The sub-grid of `geometry` (same spacing and direction, origin on a grid point) that covers
 /// the mesh's bounding box plus `margin_voxels` on every side.
-pub(super) fn covering_grid(
+pub(in crate::balloon) fn covering_grid(
     mesh: &TriMesh,
     geometry: &Geometry,
     margin_voxels: f64,
@@ -291,7 +291,7 @@ pub(super) fn covering_grid(
 /// balloon that no balloon grown from a seed can have — and those that enclose less than
 /// `min_volume`: specks that marching cubes leaves where the field barely dips below the level
 /// at a lone grid point, smaller than any seed sphere.
-pub(super) fn without_cavities(mesh: TriMesh, min_volume: f64) -> TriMesh {
+pub(in crate::balloon) fn without_cavities(mesh: TriMesh, min_volume: f64) -> TriMesh {
     let (labels, volume) = mesh_checks::component_volumes(&mesh);
     if volume.iter().all(|&v| v >= min_volume) {
         return mesh;

@@ -16,18 +16,18 @@ use std::collections::{BTreeSet, HashSet};
 
 use glam::DVec3;
 
-use super::fast_hash::FastHash;
-use super::surface::{Surface, VertexState};
+use crate::balloon::fast_hash::FastHash;
+use crate::balloon::surface::{Surface, VertexState};
 
 /// Two intersecting triangles at most this many rings apart on the surface are a fold.
-pub(super) const LOCAL_RINGS: usize = 6;
+pub(in crate::balloon) const LOCAL_RINGS: usize = 6;
 /// Rings around a fold's triangles that are smoothed with it.
 const PATCH_RINGS: usize = 2;
 /// Umbrella passes over the patch, each moving a vertex half-way to its neighbours' centroid.
 const PASSES: usize = 5;
 
 /// Whether the triangles `a` and `b` (corners) are at most [`LOCAL_RINGS`] rings apart.
-pub(super) fn is_fold(surface: &Surface, a: [u32; 3], b: [u32; 3]) -> bool {
+pub(in crate::balloon) fn is_fold(surface: &Surface, a: [u32; 3], b: [u32; 3]) -> bool {
     let mut seen: HashSet<u32, FastHash> = a.iter().copied().collect();
     let mut ring: Vec<u32> = a.to_vec();
     for _ in 0..=LOCAL_RINGS {
@@ -46,7 +46,7 @@ pub(super) fn is_fold(surface: &Surface, a: [u32; 3], b: [u32; 3]) -> bool {
 /// Smooths the patch around the folds' corners `folded`: every vertex within [`PATCH_RINGS`]
 /// rings except those frozen by a self-intersection, the patch's rim held. Afterwards a
 /// patch vertex moves on where `passable`, and is frozen at the border elsewhere.
-pub(super) fn relax(
+pub(in crate::balloon) fn relax(
     surface: &mut Surface,
     folded: &BTreeSet<u32>,
     passable: impl Fn(DVec3) -> bool,

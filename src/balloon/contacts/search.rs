@@ -11,9 +11,9 @@ use std::collections::{HashMap, HashSet};
 
 use glam::{DVec3, I64Vec3};
 
-use super::fast_hash::FastHash;
-use super::front::Front;
-use super::surface::Surface;
+use crate::balloon::fast_hash::FastHash;
+use crate::balloon::surface::front::Front;
+use crate::balloon::surface::Surface;
 use crate::error::Result;
 use crate::mesh::TriMesh;
 

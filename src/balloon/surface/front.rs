@@ -8,7 +8,7 @@
 //! over the whole surface in slot order: the results do not depend on the thread count, and
 //! are the same as if the frozen parts had been visited and skipped.
 
-use super::surface::Surface;
+use crate::balloon::surface::Surface;
 
 /// The moving part of a [`Surface`] at one moment; rebuilt with [`Front::update`] whenever
 /// the surface's connectivity or freeze states have changed.

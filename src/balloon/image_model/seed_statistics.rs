@@ -40,8 +40,8 @@
 
 use glam::DVec3;
 
-use super::border::{ImageScales, IntensityWindow};
-use super::hounsfield;
+use crate::balloon::image_model::border::{ImageScales, IntensityWindow};
+use crate::balloon::image_model::hounsfield;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::smoothed_volume::{gaussian_weights, SmoothedVolume};

@@ -23,8 +23,10 @@ use std::collections::{HashMap, HashSet};
 
 use glam::{DMat3, DVec3};
 
-use super::fast_hash::FastHash;
-use super::reparametrize::{covering_grid, isosurface, keep_seeded_components, without_cavities};
+use crate::balloon::fast_hash::FastHash;
+use crate::balloon::reparametrization::isosurface::{
+    covering_grid, isosurface, keep_seeded_components, without_cavities,
+};
 use crate::disjoint_sets::DisjointSets;
 use crate::error::Result;
 use crate::geometry::Geometry;

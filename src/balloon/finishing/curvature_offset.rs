@@ -29,14 +29,14 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::surface::Surface;
+use crate::balloon::surface::Surface;
 
 /// Moves every vertex of `surface` out along its normal by its mean curvature times the
 /// triangles' share (L²/8) plus `smoothing(v)` (the variance, mm², of the image that placed
 /// vertex `v`; 0 where no image did), by at most `largest` mm (see the module's comment).
 /// Returns the positions before, by slot, for undoing it where it made contacts. The same
 /// result for any thread count.
-pub(super) fn offset_by_curvature(
+pub(in crate::balloon) fn offset_by_curvature(
     surface: &mut Surface,
     smoothing: impl Fn(u32) -> f64 + Sync,
     largest: f64,

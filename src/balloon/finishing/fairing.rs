@@ -18,7 +18,7 @@
 
 use glam::DVec3;
 
-use super::surface::Surface;
+use crate::balloon::surface::Surface;
 
 /// Taubin's filter: λ, μ = 1/(k − 1/λ) for pass band k = 0.1, and λ|μ passes.
 const LAMBDA: f64 = 0.5;
@@ -27,7 +27,7 @@ const PASSES: usize = 20;
 
 /// Fairs `surface` in place; returns the positions before, by slot, for [`restore`]. The
 /// same result for any thread count ([`Surface::umbrella_pass`]).
-pub(super) fn fair(surface: &mut Surface) -> Vec<DVec3> {
+pub(in crate::balloon) fn fair(surface: &mut Surface) -> Vec<DVec3> {
     let before = surface.positions().to_vec();
     let live: Vec<u32> = surface.live_vertices().collect();
     fair_vertices(surface, &live);
@@ -35,7 +35,7 @@ pub(super) fn fair(surface: &mut Surface) -> Vec<DVec3> {
 }
 
 /// Fairs only `vertices` of `surface`, the others held where they are.
-pub(super) fn fair_vertices(surface: &mut Surface, vertices: &[u32]) {
+pub(in crate::balloon) fn fair_vertices(surface: &mut Surface, vertices: &[u32]) {
     // The rings, gathered once: walking the half-edges on every pass cost three times more.
     let rings = surface.rings(vertices);
     for _ in 0..PASSES {
@@ -47,7 +47,7 @@ pub(super) fn fair_vertices(surface: &mut Surface, vertices: &[u32]) {
 
 /// Puts the vertices `around` and `rings` rings of neighbours around them back at `before`
 /// (by slot, as [`fair`] returned it).
-pub(super) fn restore(
+pub(in crate::balloon) fn restore(
     surface: &mut Surface,
     before: &[DVec3],
     around: impl IntoIterator<Item = u32>,

@@ -51,7 +51,7 @@ use std::collections::HashSet;
 
 use glam::DVec3;
 
-use super::fast_hash::FastHash;
+use crate::balloon::fast_hash::FastHash;
 use crate::smoothed_volume::SmoothedVolume;
 use crate::volume::Volume;
 
@@ -64,7 +64,7 @@ const COARSE_VOXELS: f64 = 2.0;
 const EDGE_FRACTION: f64 = 0.25;
 /// How far behind a vertex and ahead of its target a local step's two levels are measured, in
 /// samples every half voxel: two and a half voxels, the width of a blurred edge's ramp.
-pub(super) const STEP_SAMPLES: usize = 5;
+pub(in crate::balloon) const STEP_SAMPLES: usize = 5;
 /// A local step happens within this many voxels at its steepest slope.
 const STEEP_VOXELS: f64 = 3.0;
 /// The hysteresis window's half-width, in tolerances.

@@ -29,8 +29,8 @@
 
 use glam::DVec3;
 
-use super::border::{Border, ImageScales};
-use super::seed_statistics::SeedStatistics;
+use crate::balloon::image_model::border::{Border, ImageScales};
+use crate::balloon::image_model::seed_statistics::SeedStatistics;
 
 /// How far on either side of the crossing the crest is looked for, and how far behind the
 /// crest the plateau and beyond it the darker tissue must lie, in voxels: a blurred wire's
@@ -136,7 +136,7 @@ fn parabolic_peak(before: f64, middle: f64, after: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::balloon::border::IntensityWindow;
+    use crate::balloon::image_model::border::IntensityWindow;
     use crate::volume::Image;
 
     fn border() -> Border {

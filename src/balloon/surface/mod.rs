@@ -14,21 +14,24 @@
 //! to [`Surface::vertex_slots`] after a split. Only [`Surface::compact`] renumbers, and it returns
 //! the old→new map so that such data can follow.
 
+pub(in crate::balloon) mod front;
+mod remesh;
+
 use std::collections::BTreeSet;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::front::Front;
+use crate::balloon::surface::front::Front;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::mesh_checks;
 
 /// Marks a dead slot (vertex, triangle corner or twin) and the end of a ring walk.
-pub(super) const NONE: u32 = u32::MAX;
+pub(in crate::balloon) const NONE: u32 = u32::MAX;
 
 /// Half-edge ids are `3 * triangle + corner` in a `u32`; this keeps them (and `NONE`) in range.
-pub(super) const MAX_TRIANGLES: usize = (u32::MAX / 3 - 1) as usize;
+pub(in crate::balloon) const MAX_TRIANGLES: usize = (u32::MAX / 3 - 1) as usize;
 
 /// Where a vertex is in the balloon's evolution. The values are the C ABI's `vertex_state` bytes.
 #[repr(u8)]
@@ -63,23 +66,23 @@ pub struct Edge {
 /// A closed, oriented, manifold triangle mesh that can be refined and coarsened in place.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Surface {
-    pub(super) positions: Vec<DVec3>,
-    pub(super) states: Vec<VertexState>,
+    pub(in crate::balloon) positions: Vec<DVec3>,
+    pub(in crate::balloon) states: Vec<VertexState>,
     /// One half-edge leaving each vertex; `NONE` for a deleted vertex.
-    pub(super) outgoing: Vec<u32>,
+    pub(in crate::balloon) outgoing: Vec<u32>,
     /// Corners of each triangle; `[NONE; 3]` for a deleted triangle.
-    pub(super) triangles: Vec<[u32; 3]>,
+    pub(in crate::balloon) triangles: Vec<[u32; 3]>,
     /// The opposite half-edge of each half-edge; `NONE` in deleted triangles.
-    pub(super) twins: Vec<u32>,
-    pub(super) live_vertices: usize,
-    pub(super) live_triangles: usize,
+    pub(in crate::balloon) twins: Vec<u32>,
+    pub(in crate::balloon) live_vertices: usize,
+    pub(in crate::balloon) live_triangles: usize,
     /// With [`Surface::record_rewrites`], the triangle slots whose corners, or a corner's
     /// position, remeshing has changed since [`Surface::take_rewritten`] (repeats allowed).
-    pub(super) rewritten: Option<Vec<u32>>,
+    pub(in crate::balloon) rewritten: Option<Vec<u32>>,
 }
 
 #[inline]
-pub(super) fn next(h: u32) -> u32 {
+pub(in crate::balloon) fn next(h: u32) -> u32 {
     if h % 3 == 2 {
         h - 2
     } else {
@@ -88,7 +91,7 @@ pub(super) fn next(h: u32) -> u32 {
 }
 
 #[inline]
-pub(super) fn prev(h: u32) -> u32 {
+pub(in crate::balloon) fn prev(h: u32) -> u32 {
     if h % 3 == 0 {
         h + 2
     } else {
@@ -330,7 +333,7 @@ impl Surface {
     }
 
     /// Notes that remeshing rewrote triangle `t`.
-    pub(super) fn note_rewritten(&mut self, t: u32) {
+    pub(in crate::balloon) fn note_rewritten(&mut self, t: u32) {
         if let Some(rewritten) = &mut self.rewritten {
             rewritten.push(t);
         }
@@ -672,37 +675,37 @@ impl Surface {
     }
 
     #[inline]
-    pub(super) fn origin(&self, h: u32) -> u32 {
+    pub(in crate::balloon) fn origin(&self, h: u32) -> u32 {
         self.triangles[(h / 3) as usize][(h % 3) as usize]
     }
 
     #[inline]
-    pub(super) fn dest(&self, h: u32) -> u32 {
+    pub(in crate::balloon) fn dest(&self, h: u32) -> u32 {
         self.origin(next(h))
     }
 
     /// The corner of `h`'s triangle that is not on `h`.
     #[inline]
-    pub(super) fn opposite(&self, h: u32) -> u32 {
+    pub(in crate::balloon) fn opposite(&self, h: u32) -> u32 {
         self.origin(prev(h))
     }
 
     /// Whether `h` is the live half-edge that stands for its undirected edge (the smaller id of
     /// the twin pair).
     #[inline]
-    pub(super) fn represents_edge(&self, h: u32) -> bool {
+    pub(in crate::balloon) fn represents_edge(&self, h: u32) -> bool {
         let g = self.twins[h as usize];
         g != NONE && h < g
     }
 
     /// The half-edge of the twin pair of the live half-edge `h` that stands for their edge.
     #[inline]
-    pub(super) fn edge_representative(&self, h: u32) -> u32 {
+    pub(in crate::balloon) fn edge_representative(&self, h: u32) -> u32 {
         h.min(self.twins[h as usize])
     }
 
     /// The half-edges leaving `v`, counter-clockwise seen from outside.
-    pub(super) fn outgoing_half_edges(&self, v: u32) -> OutgoingHalfEdges<'_> {
+    pub(in crate::balloon) fn outgoing_half_edges(&self, v: u32) -> OutgoingHalfEdges<'_> {
         let start = self.outgoing.get(v as usize).copied().unwrap_or(NONE);
         OutgoingHalfEdges {
             surface: self,
@@ -712,14 +715,14 @@ impl Surface {
     }
 
     /// The half-edge `a → b`, if `a` and `b` are adjacent.
-    pub(super) fn half_edge(&self, a: u32, b: u32) -> Option<u32> {
+    pub(in crate::balloon) fn half_edge(&self, a: u32, b: u32) -> Option<u32> {
         self.outgoing_half_edges(a).find(|&h| self.dest(h) == b)
     }
 }
 
 /// Walks around a vertex: from `v → b` in `(v, b, c)`, the previous half-edge `c → v` has the
 /// twin `v → c`, the next one counter-clockwise.
-pub(super) struct OutgoingHalfEdges<'a> {
+pub(in crate::balloon) struct OutgoingHalfEdges<'a> {
     surface: &'a Surface,
     start: u32,
     current: u32,
@@ -744,7 +747,7 @@ impl Iterator for OutgoingHalfEdges<'_> {
 }
 
 #[cfg(test)]
-pub(super) mod tests {
+pub(in crate::balloon) mod tests {
     use super::*;
     use crate::mesh::test_shapes::{cube, icosphere, torus};
     use crate::mesh_checks::check;

@@ -24,8 +24,8 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::front::Front;
-use super::surface::Surface;
+use crate::balloon::surface::front::Front;
+use crate::balloon::surface::Surface;
 
 /// Relative weights of the three forces.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -162,7 +162,7 @@ mod tests {
         let all = forces(&s, &normals);
         for v in 0..s.vertex_slots() {
             if s.positions()[v].z < 1.0 {
-                s.states_mut()[v] = super::super::surface::VertexState::FrozenAtBorder;
+                s.states_mut()[v] = crate::balloon::surface::VertexState::FrozenAtBorder;
             }
         }
         let front = Front::of(&s);

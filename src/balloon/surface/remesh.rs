@@ -17,9 +17,9 @@ use std::fmt;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::fast_hash::FastHash;
-use super::front::Front;
-use super::surface::{next, prev, Surface, VertexState, MAX_TRIANGLES, NONE};
+use crate::balloon::fast_hash::FastHash;
+use crate::balloon::surface::front::Front;
+use crate::balloon::surface::{next, prev, Surface, VertexState, MAX_TRIANGLES, NONE};
 use crate::error::{Error, Result};
 
 /// A triangle is degenerate when its height is below this fraction of its longest edge.
@@ -27,7 +27,7 @@ const DEGENERATE_SHAPE: f64 = 1e-6;
 
 /// Why an edge collapse was refused.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Refusal {
+pub(in crate::balloon) enum Refusal {
     /// The endpoints are frozen in different states (border and self-intersection).
     FrozenStates,
     /// The endpoints share a neighbour other than the two opposite vertices: collapsing would

@@ -16,10 +16,10 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::border::{Border, ImageScales};
-use super::forces::{internal_forces, ForceScratch, ForceWeights};
-use super::front::Front;
-use super::surface::{Surface, VertexState};
+use crate::balloon::image_model::border::{Border, ImageScales};
+use crate::balloon::inflation::forces::{internal_forces, ForceScratch, ForceWeights};
+use crate::balloon::surface::front::Front;
+use crate::balloon::surface::{Surface, VertexState};
 
 /// What a step needs besides the surface.
 pub(crate) struct Stepper<'a, 'v> {
@@ -178,7 +178,7 @@ fn bisect(lo: &mut f64, hi: &mut f64, on_side: impl Fn(f64) -> bool) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::balloon::border::IntensityWindow;
+    use crate::balloon::image_model::border::IntensityWindow;
     use crate::geometry::Geometry;
     use crate::volume::{Image, VoxelBuffer};
 

@@ -1,0 +1,82 @@
+//! Progress and timing: the phases a run goes through, the callback that sees them (and may
+//! cancel), and the seconds spent in each.
+
+use crate::balloon::segmenter::Segmenter;
+use crate::error::{Error, Result};
+
+/// The phase a segmenter is in, as progress callbacks see it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Phase {
+    Inflation,
+    SelfIntersection,
+    Reparametrization,
+    Refinement,
+    Validation,
+}
+
+impl Phase {
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::Inflation => "inflation",
+            Phase::SelfIntersection => "self-intersection",
+            Phase::Reparametrization => "reparametrization",
+            Phase::Refinement => "refinement",
+            Phase::Validation => "validation",
+        }
+    }
+}
+
+/// Called with the fraction done (0–1) and the phase; returning `false` cancels.
+pub type ProgressCallback<'p> = Box<dyn FnMut(f64, Phase) -> bool + 'p>;
+
+/// Seconds spent per phase.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PhaseSeconds {
+    pub inflation: f64,
+    pub self_intersection: f64,
+    pub reparametrization: f64,
+    pub refinement: f64,
+    pub validation: f64,
+}
+
+impl PhaseSeconds {
+    pub fn total(&self) -> f64 {
+        self.inflation
+            + self.self_intersection
+            + self.reparametrization
+            + self.refinement
+            + self.validation
+    }
+
+    pub(super) fn add(&mut self, phase: Phase, seconds: f64) {
+        *match phase {
+            Phase::Inflation => &mut self.inflation,
+            Phase::SelfIntersection => &mut self.self_intersection,
+            Phase::Reparametrization => &mut self.reparametrization,
+            Phase::Refinement => &mut self.refinement,
+            Phase::Validation => &mut self.validation,
+        } += seconds;
+    }
+}
+
+impl<'p> Segmenter<'_, 'p> {
+    /// Reports progress to the callback, if any; cancels when it says so.
+    pub fn set_progress(&mut self, callback: Option<ProgressCallback<'p>>) {
+        self.progress = callback;
+    }
+
+    pub(super) fn report(&mut self, fraction: f64, phase: Phase) -> Result<()> {
+        let go_on = match &mut self.progress {
+            Some(callback) => callback(fraction.clamp(0.0, 1.0), phase),
+            None => true,
+        };
+        if go_on {
+            Ok(())
+        } else {
+            Err(Error::cancelled(format!(
+                "cancelled by the progress callback during {}",
+                phase.name()
+            )))
+        }
+    }
+}
