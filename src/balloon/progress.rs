@@ -1,6 +1,8 @@
 //! Progress and timing: the phases a run goes through, the callback that sees them (and may
 //! cancel), and the seconds spent in each.
 
+use std::time::Instant;
+
 use crate::balloon::segmenter::Segmenter;
 use crate::error::{Error, Result};
 
@@ -78,5 +80,14 @@ impl<'p> Segmenter<'_, 'p> {
                 phase.name()
             )))
         }
+    }
+
+    /// Runs `work` on the segmenter and adds its seconds to `phase`'s, whether it succeeds or
+    /// not.
+    pub(super) fn timed<T>(&mut self, phase: Phase, work: impl FnOnce(&mut Self) -> T) -> T {
+        let start = Instant::now();
+        let result = work(self);
+        self.stats.seconds.add(phase, start.elapsed().as_secs_f64());
+        result
     }
 }

@@ -7,7 +7,6 @@ pub(in crate::balloon) mod search;
 pub(in crate::balloon) mod untangle;
 
 use std::collections::BTreeSet;
-use std::time::Instant;
 
 use crate::balloon::progress::Phase;
 use crate::balloon::segmenter::Segmenter;
@@ -36,54 +35,52 @@ impl Segmenter<'_, '_> {
     /// surface are folds of the mesh, not contacts: their patch is relaxed instead
     /// (`untangle`).
     pub fn freeze_self_intersections(&mut self) -> Result<usize> {
-        let start = Instant::now();
-        let front = Front::of(&self.surface);
-        let near = self.frozen.near(&mut self.surface, &front);
-        let local = local_mesh(&self.surface, &near)?;
-        let local_active: Vec<bool> = near
-            .iter()
-            .map(|t| front.triangles.binary_search(t).is_ok())
-            .collect();
-        let pairs = self
-            .pool
-            .install(|| self_intersections_among(&local, &local_active))?;
-        let corners = |t: u32| {
-            self.surface
-                .triangle(near[t as usize])
-                .expect("near triangles are live")
-        };
-        let (folds, contacts): (Vec<_>, Vec<_>) = pairs
-            .into_iter()
-            .partition(|&(a, b)| untangle::is_fold(&self.surface, corners(a), corners(b)));
-        let folded: BTreeSet<u32> = folds
-            .iter()
-            .flat_map(|&(a, b)| corners(a).into_iter().chain(corners(b)))
-            .collect();
-        let contacts: Vec<[u32; 3]> = contacts
-            .iter()
-            .flat_map(|&(a, b)| [corners(a), corners(b)])
-            .collect();
-        if !folded.is_empty() {
-            let (image, border) = (&self.image, self.border);
-            let surface = &mut self.surface;
-            self.pool
-                .install(|| untangle::relax(surface, &folded, |p| border.passable(image, p)));
-        }
-        let mut frozen = 0;
-        let mut fronts = Vec::new();
-        for v in contacts.into_iter().flatten() {
-            let state = &mut self.surface.states_mut()[v as usize];
-            if *state != VertexState::FrozenBySelfIntersection {
-                *state = VertexState::FrozenBySelfIntersection;
-                frozen += 1;
-                fronts.push(v);
+        self.timed(Phase::SelfIntersection, |s| {
+            let front = Front::of(&s.surface);
+            let near = s.frozen.near(&mut s.surface, &front);
+            let local = local_mesh(&s.surface, &near)?;
+            let local_active: Vec<bool> = near
+                .iter()
+                .map(|t| front.triangles.binary_search(t).is_ok())
+                .collect();
+            let pairs = s
+                .pool
+                .install(|| self_intersections_among(&local, &local_active))?;
+            let corners = |t: u32| {
+                s.surface
+                    .triangle(near[t as usize])
+                    .expect("near triangles are live")
+            };
+            let (folds, contacts): (Vec<_>, Vec<_>) = pairs
+                .into_iter()
+                .partition(|&(a, b)| untangle::is_fold(&s.surface, corners(a), corners(b)));
+            let folded: BTreeSet<u32> = folds
+                .iter()
+                .flat_map(|&(a, b)| corners(a).into_iter().chain(corners(b)))
+                .collect();
+            let contacts: Vec<[u32; 3]> = contacts
+                .iter()
+                .flat_map(|&(a, b)| [corners(a), corners(b)])
+                .collect();
+            if !folded.is_empty() {
+                let (image, border) = (&s.image, s.border);
+                let surface = &mut s.surface;
+                s.pool
+                    .install(|| untangle::relax(surface, &folded, |p| border.passable(image, p)));
             }
-        }
-        frozen += self.freeze_fronts(fronts);
-        self.stats
-            .seconds
-            .add(Phase::SelfIntersection, start.elapsed().as_secs_f64());
-        Ok(frozen)
+            let mut frozen = 0;
+            let mut fronts = Vec::new();
+            for v in contacts.into_iter().flatten() {
+                let state = &mut s.surface.states_mut()[v as usize];
+                if *state != VertexState::FrozenBySelfIntersection {
+                    *state = VertexState::FrozenBySelfIntersection;
+                    frozen += 1;
+                    fronts.push(v);
+                }
+            }
+            frozen += s.freeze_fronts(fronts);
+            Ok(frozen)
+        })
     }
 
     /// Freezes every moving vertex connected through moving vertices to `seeds` — the rest of

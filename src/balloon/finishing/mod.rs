@@ -9,8 +9,6 @@ pub(in crate::balloon) mod settling;
 pub(in crate::balloon) mod touching;
 mod validation;
 
-use std::time::Instant;
-
 use glam::DVec3;
 
 use crate::balloon::progress::Phase;
@@ -41,30 +39,28 @@ impl Segmenter<'_, '_> {
     /// seeds' structure (`touching`), with cores eroded by `TOUCHING_EDGE_LENGTHS` target edge
     /// lengths: the paper ties the triangle size to the scale of the smallest structure.
     pub(super) fn cut_touching(&mut self, next: AfterReparametrization) -> Result<()> {
-        let start = Instant::now();
-        self.report(0.9, Phase::Reparametrization)?;
-        let (mesh, _) = self.mesh();
-        let geometry = *self.volume.geometry();
-        let radius = TOUCHING_EDGE_LENGTHS * self.edge_length;
-        let (seeds, earlier) = (&self.seeds, self.image.excluded());
-        if let Some(cut) = self
-            .pool
-            .install(|| cut_touching(&mesh, &geometry, seeds, radius, earlier))?
-        {
-            self.image.exclude(cut.removed);
-            let mut surface = Surface::from_mesh(&cut.mesh)?;
-            match next {
-                AfterReparametrization::Nothing => {
-                    surface.states_mut().fill(VertexState::FrozenAtBorder)
+        self.timed(Phase::Reparametrization, |s| {
+            s.report(0.9, Phase::Reparametrization)?;
+            let (mesh, _) = s.mesh();
+            let geometry = *s.volume.geometry();
+            let radius = TOUCHING_EDGE_LENGTHS * s.edge_length;
+            let (seeds, earlier) = (&s.seeds, s.image.excluded());
+            if let Some(cut) = s
+                .pool
+                .install(|| cut_touching(&mesh, &geometry, seeds, radius, earlier))?
+            {
+                s.image.exclude(cut.removed);
+                let mut surface = Surface::from_mesh(&cut.mesh)?;
+                match next {
+                    AfterReparametrization::Nothing => {
+                        surface.states_mut().fill(VertexState::FrozenAtBorder)
+                    }
+                    AfterReparametrization::Refinement => s.freeze_outside_window(&mut surface),
                 }
-                AfterReparametrization::Refinement => self.freeze_outside_window(&mut surface),
+                s.replace_surface(surface);
             }
-            self.replace_surface(surface);
-        }
-        self.stats
-            .seconds
-            .add(Phase::Reparametrization, start.elapsed().as_secs_f64());
-        Ok(())
+            Ok(())
+        })
     }
 
     /// Fairs the final surface (`fairing`) and settles it onto thin layers' crests and the
@@ -79,40 +75,33 @@ impl Segmenter<'_, '_> {
         if self.has_self_intersections() {
             return Vec::new();
         }
-        let start = Instant::now();
-        let surface = &mut self.surface;
-        let unfaired = self.pool.install(|| fairing::fair(surface));
-        let unsettled = self.surface.positions().to_vec();
-        let soft_tissue = self
-            .stats
-            .seed_statistics
-            .as_ref()
-            .and_then(|s| s.soft_tissue);
-        let (surface, image, border) = (&mut self.surface, &self.image, &self.border);
-        let settled = self
-            .pool
-            .install(|| settling::settle(surface, image, border, soft_tissue));
-        let around: Vec<u32> = self
-            .surface
-            .neighbourhood(settled.crested, 1)
-            .into_iter()
-            .collect();
-        let surface = &mut self.surface;
-        self.pool
-            .install(|| fairing::fair_vertices(surface, &around));
-        let variance = self.image.fine.blur_variances().iter().sum::<f64>() / 3.0;
-        let on_edge = settled.on_darker_edge;
-        let smoothing = |v: u32| if on_edge[v as usize] { variance } else { 0.0 };
-        let largest = CURVATURE_OFFSET_VOXELS * self.border.voxel;
-        let surface = &mut self.surface;
-        let unmoved = self
-            .pool
-            .install(|| offset_by_curvature(surface, smoothing, largest));
-        self.index_surface();
-        self.stats
-            .seconds
-            .add(Phase::Refinement, start.elapsed().as_secs_f64());
-        vec![unmoved, unsettled, unfaired]
+        self.timed(Phase::Refinement, |s| {
+            let surface = &mut s.surface;
+            let unfaired = s.pool.install(|| fairing::fair(surface));
+            let unsettled = s.surface.positions().to_vec();
+            let soft_tissue = s.stats.seed_statistics.as_ref().and_then(|s| s.soft_tissue);
+            let (surface, image, border) = (&mut s.surface, &s.image, &s.border);
+            let settled = s
+                .pool
+                .install(|| settling::settle(surface, image, border, soft_tissue));
+            let around: Vec<u32> = s
+                .surface
+                .neighbourhood(settled.crested, 1)
+                .into_iter()
+                .collect();
+            let surface = &mut s.surface;
+            s.pool.install(|| fairing::fair_vertices(surface, &around));
+            let variance = s.image.fine.blur_variances().iter().sum::<f64>() / 3.0;
+            let on_edge = settled.on_darker_edge;
+            let smoothing = |v: u32| if on_edge[v as usize] { variance } else { 0.0 };
+            let largest = CURVATURE_OFFSET_VOXELS * s.border.voxel;
+            let surface = &mut s.surface;
+            let unmoved = s
+                .pool
+                .install(|| offset_by_curvature(surface, smoothing, largest));
+            s.index_surface();
+            vec![unmoved, unsettled, unfaired]
+        })
     }
 
     /// Puts the corners of the triangles in `pairs` (of `mesh`, the current surface as

@@ -2,7 +2,6 @@
 //! self-intersections, or the finishing steps undone around the contacts, or one more
 //! re-parametrisation; and handles narrower than a voxel closed when the image cannot show them.
 
-use std::time::Instant;
 
 use glam::DVec3;
 
@@ -37,60 +36,58 @@ impl Segmenter<'_, '_> {
         &mut self,
         mut earlier: Vec<Vec<DVec3>>,
     ) -> Result<(TriMesh, Vec<VertexState>)> {
-        let start = Instant::now();
-        self.report(0.95, Phase::Validation)?;
-        // A balloon that stopped with contacts cannot pass: repair it without measuring it.
-        let mut repaired = self.has_self_intersections();
-        if repaired {
-            self.replace_by_isosurface(AfterReparametrization::Nothing)?;
-        }
-        let mut unfair_rounds = 0;
-        loop {
-            let (mesh, states) = self.mesh();
-            let report = mesh_checks::check(&mesh);
-            let pairs = self.pool.install(|| self_intersections(&mesh));
-            if report.is_valid_closed_surface() && pairs.is_empty() {
-                let result = match report.genus() {
-                    Some(genus) if genus > 0 && !repaired && report.components == 1 => self
-                        .with_fewer_handles(&mesh, genus, report.signed_volume)?
-                        .unwrap_or((mesh, states)),
-                    _ => (mesh, states),
-                };
-                self.stats
-                    .seconds
-                    .add(Phase::Validation, start.elapsed().as_secs_f64());
-                self.report(1.0, Phase::Validation)?;
-                return Ok(result);
-            }
-            if !earlier.is_empty() {
-                // Around the contacts, each step undone in turn, latest first, before the
-                // latest is undone everywhere: a contact settling made stays when only the
-                // curvature offset is undone around it.
-                let stage = (unfair_rounds / UNFAIR_ROUNDS) as usize;
-                if stage < earlier.len() && report.is_valid_closed_surface() {
-                    self.unfair(&earlier[stage], &mesh, &pairs);
-                    unfair_rounds += 1;
-                } else {
-                    let before = earlier.remove(0);
-                    self.unfair(&before, &mesh, &[]);
-                    unfair_rounds = 0;
-                }
-                continue;
-            }
+        self.timed(Phase::Validation, |s| {
+            s.report(0.95, Phase::Validation)?;
+            // A balloon that stopped with contacts cannot pass: repair it without measuring it.
+            let mut repaired = s.has_self_intersections();
             if repaired {
-                return Err(Error::internal(format!(
-                    "the segmentation failed its own checks (closed {}, manifold {}, outward {}, \
-                     {} self-intersecting pairs) even after re-parametrisation",
-                    report.closed(),
-                    report.manifold(),
-                    report.outward(),
-                    pairs.len()
-                )));
+                s.replace_by_isosurface(AfterReparametrization::Nothing)?;
             }
-            self.freeze_self_intersections()?;
-            self.replace_by_isosurface(AfterReparametrization::Nothing)?;
-            repaired = true;
-        }
+            let mut unfair_rounds = 0;
+            loop {
+                let (mesh, states) = s.mesh();
+                let report = mesh_checks::check(&mesh);
+                let pairs = s.pool.install(|| self_intersections(&mesh));
+                if report.is_valid_closed_surface() && pairs.is_empty() {
+                    let result = match report.genus() {
+                        Some(genus) if genus > 0 && !repaired && report.components == 1 => s
+                            .with_fewer_handles(&mesh, genus, report.signed_volume)?
+                            .unwrap_or((mesh, states)),
+                        _ => (mesh, states),
+                    };
+                    s.report(1.0, Phase::Validation)?;
+                    return Ok(result);
+                }
+                if !earlier.is_empty() {
+                    // Around the contacts, each step undone in turn, latest first, before the
+                    // latest is undone everywhere: a contact settling made stays when only the
+                    // curvature offset is undone around it.
+                    let stage = (unfair_rounds / UNFAIR_ROUNDS) as usize;
+                    if stage < earlier.len() && report.is_valid_closed_surface() {
+                        s.unfair(&earlier[stage], &mesh, &pairs);
+                        unfair_rounds += 1;
+                    } else {
+                        let before = earlier.remove(0);
+                        s.unfair(&before, &mesh, &[]);
+                        unfair_rounds = 0;
+                    }
+                    continue;
+                }
+                if repaired {
+                    return Err(Error::internal(format!(
+                        "the segmentation failed its own checks (closed {}, manifold {}, outward {}, \
+                         {} s-intersecting pairs) even after re-parametrisation",
+                        report.closed(),
+                        report.manifold(),
+                        report.outward(),
+                        pairs.len()
+                    )));
+                }
+                s.freeze_self_intersections()?;
+                s.replace_by_isosurface(AfterReparametrization::Nothing)?;
+                repaired = true;
+            }
+        })
     }
 
     /// The final surface `mesh` (of genus `genus`, enclosing `volume`) re-parametrised (without

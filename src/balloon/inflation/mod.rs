@@ -6,7 +6,6 @@
 pub mod forces;
 pub(in crate::balloon) mod stepper;
 
-use std::time::Instant;
 
 use crate::balloon::progress::Phase;
 use crate::balloon::reparametrization::AfterReparametrization;
@@ -62,29 +61,30 @@ impl Segmenter<'_, '_> {
     }
 
     pub(super) fn one_step(&mut self, phase: Phase) -> Result<StepReport> {
-        let start = Instant::now();
-        let stepper = Stepper {
-            image: &self.image,
-            border: self.border,
-            weights: self.params.weights,
-            edge_length: self.edge_length,
-            max_step: self.params.step_fraction * self.volume.geometry().min_spacing(),
-        };
-        self.stats.iterations += 1;
-        // One hand-over to the pool per step: remeshing goes with the step when it is due.
-        let remesh = (self.stats.iterations % REMESH_INTERVAL == 0).then(|| self.remesh_lengths());
-        let (surface, scratch) = (&mut self.surface, &mut self.scratch);
-        let mut report = self.pool.install(|| -> Result<StepReport> {
-            let report = stepper.step(surface, scratch);
-            if let Some((split, collapse)) = remesh {
-                remesh_surface(surface, split, collapse)?;
+        let mut report = self.timed(phase, |s| -> Result<StepReport> {
+            let stepper = Stepper {
+                image: &s.image,
+                border: s.border,
+                weights: s.params.weights,
+                edge_length: s.edge_length,
+                max_step: s.params.step_fraction * s.volume.geometry().min_spacing(),
+            };
+            s.stats.iterations += 1;
+            // One hand-over to the pool per step: remeshing goes with the step when it is due.
+            let remesh = (s.stats.iterations % REMESH_INTERVAL == 0).then(|| s.remesh_lengths());
+            let (surface, scratch) = (&mut s.surface, &mut s.scratch);
+            let report = s.pool.install(|| -> Result<StepReport> {
+                let report = stepper.step(surface, scratch);
+                if let Some((split, collapse)) = remesh {
+                    remesh_surface(surface, split, collapse)?;
+                }
+                Ok(report)
+            })?;
+            if remesh.is_some() {
+                s.after_remeshing()?;
             }
             Ok(report)
         })?;
-        if remesh.is_some() {
-            self.after_remeshing()?;
-        }
-        self.stats.seconds.add(phase, start.elapsed().as_secs_f64());
         if self.stats.iterations % self.params.self_intersection_interval == 0 {
             self.freeze_self_intersections()?;
             report.moving = self.moving_vertices();

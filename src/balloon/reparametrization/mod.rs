@@ -5,8 +5,6 @@
 
 pub(in crate::balloon) mod isosurface;
 
-use std::time::Instant;
-
 use glam::DVec3;
 
 use crate::balloon::progress::Phase;
@@ -36,33 +34,31 @@ impl Segmenter<'_, '_> {
     /// inside the window move; a final surface keeps the states of the balloon it replaces
     /// (`inherited_states`), so that what was still moving says so.
     pub(super) fn replace_by_isosurface(&mut self, next: AfterReparametrization) -> Result<()> {
-        let start = Instant::now();
-        self.report(0.75, Phase::Reparametrization)?;
-        let (mesh, states) = self.mesh();
-        let geometry = *self.volume.geometry();
-        let (image, border) = (&self.image, self.border);
-        let keep = Keep {
-            seeds: &self.seeds,
-            passable: &|p| border.passable(image, p),
-        };
-        let repaired = self
-            .pool
-            .install(|| reparametrize(&mesh, &states, &geometry, &keep))?;
-        let mut surface = Surface::from_mesh(&repaired)?;
-        match next {
-            AfterReparametrization::Nothing => {
-                let reach = 2.0 * geometry.max_spacing();
-                let inherited = inherited_states(&mesh, &states, &repaired, reach);
-                surface.states_mut().copy_from_slice(&inherited);
+        self.timed(Phase::Reparametrization, |s| {
+            s.report(0.75, Phase::Reparametrization)?;
+            let (mesh, states) = s.mesh();
+            let geometry = *s.volume.geometry();
+            let (image, border) = (&s.image, s.border);
+            let keep = Keep {
+                seeds: &s.seeds,
+                passable: &|p| border.passable(image, p),
+            };
+            let repaired = s
+                .pool
+                .install(|| reparametrize(&mesh, &states, &geometry, &keep))?;
+            let mut surface = Surface::from_mesh(&repaired)?;
+            match next {
+                AfterReparametrization::Nothing => {
+                    let reach = 2.0 * geometry.max_spacing();
+                    let inherited = inherited_states(&mesh, &states, &repaired, reach);
+                    surface.states_mut().copy_from_slice(&inherited);
+                }
+                AfterReparametrization::Refinement => s.freeze_outside_window(&mut surface),
             }
-            AfterReparametrization::Refinement => self.freeze_outside_window(&mut surface),
-        }
-        self.replace_surface(surface);
-        self.stats.reparametrizations += 1;
-        self.stats
-            .seconds
-            .add(Phase::Reparametrization, start.elapsed().as_secs_f64());
-        Ok(())
+            s.replace_surface(surface);
+            s.stats.reparametrizations += 1;
+            Ok(())
+        })
     }
 
     /// Freezes the vertices of a new surface where the balloon may not go (`border`), or where
