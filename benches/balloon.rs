@@ -10,8 +10,8 @@ use std::hint::black_box;
 
 use balloonseg::balloon::{BalloonParams, Segmenter};
 use balloonseg::phantom::{self, PhantomOptions, Shape};
-use balloonseg::test_data::data_dir;
 use balloonseg::{io, Image};
+use balloonseg_testkit::data_dir;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use glam::DVec3;
 

@@ -22,8 +22,8 @@ use std::time::Instant;
 use balloonseg::balloon::{BalloonParams, Segmenter};
 use balloonseg::evaluation::{score_against_level_set, IndexBox, LevelSetScore};
 use balloonseg::render::{self, RenderOptions};
-use balloonseg::test_data::data_dir;
 use balloonseg::{io, mesh_checks, Error, Image, Result, TriMesh};
+use balloonseg_testkit::data_dir;
 use glam::DVec3;
 
 fn main() {

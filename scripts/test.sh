@@ -36,10 +36,10 @@ echo "BALLOONSEG_DATA=$BALLOONSEG_DATA"
 
 step "format and lint"
 cargo fmt --all -- --check
-cargo clippy --all-targets --all-features --locked -- -D warnings
+cargo clippy --workspace --all-targets --all-features --locked -- -D warnings
 
 step "Rust tests"
-cargo test --all-features --locked --release
+cargo test --workspace --all-features --locked --release
 
 step "C ABI: C and C++ tests under AddressSanitizer and valgrind"
 bash scripts/test_c_api.sh

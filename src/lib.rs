@@ -28,8 +28,6 @@ pub mod self_intersection;
 pub mod signed_distance;
 pub mod smoothed_volume;
 pub mod spatial_hash;
-#[doc(hidden)]
-pub mod test_data;
 pub mod triangle_intersection;
 pub mod volume;
 pub mod winding_number;

@@ -14,7 +14,7 @@ mod real_scan_cases;
 use std::io::Write;
 
 use balloonseg::balloon::BalloonParams;
-use balloonseg::test_data::data_dir;
+use balloonseg_testkit::data_dir;
 use real_scan_cases::CASES;
 
 /// The seeds that meet the README's expectation.

@@ -9,8 +9,8 @@ use balloonseg::balloon::{BalloonParams, Segmenter, VertexState};
 use balloonseg::evaluation::{score_against_level_set, IndexBox, LevelSetScore};
 use balloonseg::marching_cubes::marching_cubes;
 use balloonseg::signed_distance::{signed_distance, SignedDistanceOptions};
-use balloonseg::test_data::data_dir;
 use balloonseg::{io, mesh_checks, self_intersection::self_intersections, Image};
+use balloonseg_testkit::data_dir;
 use glam::DVec3;
 
 fn aorta_level_set() -> Option<Image> {

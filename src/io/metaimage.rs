@@ -341,7 +341,7 @@ mod tests {
     use crate::io::test_images::{
         assert_never_panics, assert_same_voxels, oblique_geometry, pattern_image, scratch_dir,
     };
-    use crate::test_data::data_dir;
+    use balloonseg_testkit::data_dir;
 
     #[test]
     fn every_scalar_type_round_trips_exactly_through_mha_and_mhd() {

@@ -46,7 +46,7 @@ pub(crate) fn assert_never_panics<T>(
 }
 
 /// A file of the shared real data set, or `None` when the tests skip for lack of it (see
-/// `crate::test_data`, which also makes the data mandatory on CI).
+/// `balloonseg_testkit`, which also makes the data mandatory on CI).
 pub(crate) fn shared_data(relative: &str) -> Option<PathBuf> {
-    Some(crate::test_data::data_dir()?.join(relative))
+    Some(balloonseg_testkit::data_dir()?.join(relative))
 }

@@ -2,7 +2,6 @@
 //! self-intersections, or the finishing steps undone around the contacts, or one more
 //! re-parametrisation; and handles narrower than a voxel closed when the image cannot show them.
 
-
 use glam::DVec3;
 
 use crate::balloon::progress::Phase;

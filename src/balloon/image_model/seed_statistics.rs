@@ -728,7 +728,7 @@ mod tests {
     #[cfg(feature = "io")]
     #[test]
     fn real_seeds_find_the_lumen_and_the_tissue_around_it() {
-        let Some(dir) = crate::test_data::data_dir() else {
+        let Some(dir) = balloonseg_testkit::data_dir() else {
             return;
         };
         // ../shared/data/README.md: around the aorta seed the median is 1933; the lumen's

@@ -6,7 +6,6 @@
 pub mod forces;
 pub(in crate::balloon) mod stepper;
 
-
 use crate::balloon::progress::Phase;
 use crate::balloon::reparametrization::AfterReparametrization;
 use crate::balloon::segmenter::Segmenter;

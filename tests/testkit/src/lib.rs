@@ -1,9 +1,10 @@
 //! Where the real test scans live (`BALLOONSEG_DATA`, by default `../shared/data` from the
 //! working directory, which is the project's root for `cargo test` and `cargo bench`) and what a
 //! test does when they are missing: on a developer's machine it says loudly that it skipped and
-//! returns; on CI (`CI=true`) it fails, because CI always has them. Public but hidden from the
-//! docs so that the integration tests in `tests/` share it; the default is resolved at run time,
-//! so no path of the machine that built the library is baked into it.
+//! returns; on CI (`CI=true`) it fails, because CI always has them.
+//!
+//! A crate of its own, balloonseg's dev-dependency, so that its unit tests, integration tests,
+//! benchmarks and examples share it while the library users link never carries it.
 
 use std::io::Write;
 use std::path::PathBuf;
