@@ -7,30 +7,26 @@
 //! supported scalar type and produces meshes in world millimetres.
 
 pub mod balloon;
-pub mod closest_point;
-pub mod digital_topology;
-mod disjoint_sets;
 pub mod error;
 pub mod evaluation;
 pub mod ffi;
 pub mod geometry;
 #[cfg(feature = "io")]
 pub mod io;
-pub mod marching_cubes;
+mod kernels;
 pub mod mesh;
-pub mod mesh_checks;
-pub mod morphology;
 pub mod phantom;
-pub mod predicates;
 #[cfg(feature = "io")]
 pub mod render;
-pub mod self_intersection;
-pub mod signed_distance;
-pub mod smoothed_volume;
-pub mod spatial_hash;
-pub mod triangle_intersection;
 pub mod volume;
-pub mod winding_number;
+
+// The kernels live together in src/kernels/ and are reached from the root, as before.
+pub(crate) use kernels::disjoint_sets;
+pub use kernels::{
+    closest_point, digital_topology, marching_cubes, mesh_checks, morphology, predicates,
+    self_intersection, signed_distance, smoothed_volume, spatial_hash, triangle_intersection,
+    winding_number,
+};
 
 pub use error::{Error, ErrorKind, Result};
 pub use geometry::Geometry;
