@@ -61,35 +61,21 @@ pub fn read_vti(path: &Path) -> Result<Image> {
     files::parse_file(path, parse_vti)
 }
 
-/// Splits off the appended data, parses the XML before it and checks the file type.
+/// Parses the XML up to the appended data, if any, and checks the file type.
 fn open<'a>(bytes: &'a [u8], kind: &str) -> Result<(Element<'a>, Storage<'a>)> {
-    let marker = b"<AppendedData";
-    let appended_at = bytes
-        .iter()
-        .enumerate()
-        .filter(|&(_, &b)| b == b'<')
-        .map(|(i, _)| i)
-        .find(|&i| bytes[i..].starts_with(marker));
-    let (document, appended) = match appended_at {
-        None => (bytes, None),
-        Some(at) => {
-            let tag_end = bytes[at..]
-                .iter()
-                .position(|&b| b == b'>')
-                .map(|n| at + n + 1)
-                .ok_or_else(|| Error::format("<AppendedData is not closed by '>'"))?;
-            let tag = xml::parse(&bytes[at..tag_end], true)?;
-            let rest = &bytes[tag_end..];
+    let xml::Document { root, rest } = xml::parse(bytes, Some("AppendedData"))?;
+    let appended = match rest {
+        None => None,
+        Some((tag, rest)) => {
             let data = rest
                 .iter()
                 .position(|b| !b.is_ascii_whitespace())
                 .filter(|&n| rest[n] == b'_')
                 .map(|n| &rest[n + 1..])
                 .ok_or_else(|| Error::format("AppendedData does not start with '_'"))?;
-            (&bytes[..at], Some((tag, data)))
+            Some((tag, data))
         }
     };
-    let root = xml::parse(document, appended.is_some())?;
     if root.name != "VTKFile" || root.attribute("type") != Some(kind) {
         return Err(Error::format(format!(
             "not a VTK XML {kind} file: the root is <{} type={:?}>",
