@@ -18,6 +18,12 @@
 //! sform and the qform set (code 1, scanner), so ITK and nibabel read back the same geometry;
 //! when the direction is not a rotation or a reflection, only the sform is written. NIfTI stores
 //! geometry as float32, so it comes back to float32 precision.
+//!
+//! Ours rather than the `nifti` crate (0.18), measured in BENCHMARKS.md ("io: our readers
+//! against the crates"): the crate gives the header and the voxels but no world geometry (its
+//! affine is RAS, behind an nalgebra feature), so the sform/qform-to-LPS code above would stay;
+//! it reads a .nii in 1.8 times our time and a .nii.gz in the same time; on the regression files
+//! and 2000 mutations both readers had no panic, abort or hang.
 
 use std::borrow::Cow;
 use std::path::Path;

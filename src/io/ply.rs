@@ -4,6 +4,12 @@
 //! `vertex_indices` (or `vertex_index`) list, with any count and index types; every other
 //! element and property, lists included, is skipped. Writing stores binary little endian with
 //! double coordinates, point data as extra vertex properties and `uchar`/`uint` face lists.
+//!
+//! Ours rather than `ply-rs-bw` (4.0), measured in BENCHMARKS.md ("io: our readers against the
+//! crates"): it covers the same encodings and list types but stores every element as a hash map
+//! of properties, which takes 5.6 (ASCII) to 11.6 (binary) times our time, and it needs Rust
+//! 1.87 (ours 1.80); on 2000 mutations each of three files neither reader panicked, aborted or
+//! hung.
 
 use std::io::Write;
 use std::path::Path;

@@ -3,6 +3,12 @@
 //!
 //! A binary file may begin with the word "solid" like an ASCII one, so the size formula of
 //! binary STL (84 + 50 bytes per triangle) decides first, and the word "solid" only after.
+//!
+//! Ours rather than `stl_io` (0.11), measured in BENCHMARKS.md ("io: our readers against the
+//! crates"): it welds the same vertices, but reads binary STL in 1.2 to 1.3 times our time and
+//! ASCII in 2.0, its errors are io errors that do not name the facet, and it needs Rust 1.85
+//! (ours 1.80); on 2000 mutations each of an ASCII and a binary file neither reader panicked,
+//! aborted or hung.
 
 use std::io::Write;
 use std::path::Path;

@@ -12,6 +12,14 @@
 //! double points, the layout every VTK release reads, and point data as a FIELD of point
 //! arrays (VTK's reader loads only the first SCALARS unless told otherwise, but every FIELD
 //! array).
+//!
+//! Ours rather than `vtkio` (0.7.0-rc2, a release candidate), measured in
+//! BENCHMARKS.md ("io: our readers against the crates"): its model keeps an image's origin and
+//! spacing as float32 and has no DIRECTION; it parses a binary POLYDATA into its own model in
+//! a quarter of our time (ours also builds and checks the TriMesh), an ASCII one in the same
+//! time, a binary image in 1.8 times ours and an ASCII image in 0.4 of it. On 2000 mutations
+//! each of five files neither reader panicked, aborted or hung. Its XML side fails outright
+//! (see vtk_xml.rs), so it would cover only half of what these two modules read.
 
 use std::io::Write;
 use std::path::Path;

@@ -9,6 +9,12 @@
 //!
 //! The writer stores appended raw data with a UInt64 header and Int64 cells, which VTK reads
 //! from 6.2 on, zlib-compressed by default like VTK's own writer.
+//!
+//! Ours rather than `vtkio` (0.7.0-rc2), measured in BENCHMARKS.md ("io: our readers against
+//! the crates"): it cannot read raw appended data (`encoding="raw"`, what this writer and
+//! VTK's default appended mode produce), it panics (capacity overflow) on a valid
+//! zlib-compressed .vtp from VTK 9 and on 352 of 2000 mutations of it, and it has no
+//! ImageData Direction. The XML itself is parsed by quick-xml (xml.rs).
 
 use std::io::Write;
 use std::path::Path;
@@ -61,35 +67,21 @@ pub fn read_vti(path: &Path) -> Result<Image> {
     files::parse_file(path, parse_vti)
 }
 
-/// Splits off the appended data, parses the XML before it and checks the file type.
+/// Parses the XML up to the appended data, if any, and checks the file type.
 fn open<'a>(bytes: &'a [u8], kind: &str) -> Result<(Element<'a>, Storage<'a>)> {
-    let marker = b"<AppendedData";
-    let appended_at = bytes
-        .iter()
-        .enumerate()
-        .filter(|&(_, &b)| b == b'<')
-        .map(|(i, _)| i)
-        .find(|&i| bytes[i..].starts_with(marker));
-    let (document, appended) = match appended_at {
-        None => (bytes, None),
-        Some(at) => {
-            let tag_end = bytes[at..]
-                .iter()
-                .position(|&b| b == b'>')
-                .map(|n| at + n + 1)
-                .ok_or_else(|| Error::format("<AppendedData is not closed by '>'"))?;
-            let tag = xml::parse(&bytes[at..tag_end], true)?;
-            let rest = &bytes[tag_end..];
+    let xml::Document { root, rest } = xml::parse(bytes, Some("AppendedData"))?;
+    let appended = match rest {
+        None => None,
+        Some((tag, rest)) => {
             let data = rest
                 .iter()
                 .position(|b| !b.is_ascii_whitespace())
                 .filter(|&n| rest[n] == b'_')
                 .map(|n| &rest[n + 1..])
                 .ok_or_else(|| Error::format("AppendedData does not start with '_'"))?;
-            (&bytes[..at], Some((tag, data)))
+            Some((tag, data))
         }
     };
-    let root = xml::parse(document, appended.is_some())?;
     if root.name != "VTKFile" || root.attribute("type") != Some(kind) {
         return Err(Error::format(format!(
             "not a VTK XML {kind} file: the root is <{} type={:?}>",
