@@ -236,7 +236,20 @@ impl<'a, T: Scalar> TypedVolume<'a, T> {
     /// voxel beyond them; `None` outside `[-0.5, dims-0.5]` on any axis.
     pub fn sample_index(&self, p: DVec3) -> Option<f64> {
         let cell = Cell::around(p, self.dims)?;
-        let corners = cell.corners().map(|[i, j, k]| self.get(i, j, k).to_f64());
+        let ([i0, j0, k0], [i1, j1, k1]) = (cell.lo, cell.hi);
+        let v = |i, j, k| self.get(i, j, k).to_f64();
+        // Spelled out rather than mapped over `Cell::corners`, whose closure the compiler does
+        // not always inline here; the same order, x fastest.
+        let corners = [
+            v(i0, j0, k0),
+            v(i1, j0, k0),
+            v(i0, j1, k0),
+            v(i1, j1, k0),
+            v(i0, j0, k1),
+            v(i1, j0, k1),
+            v(i0, j1, k1),
+            v(i1, j1, k1),
+        ];
         Some(cell.interpolate(corners))
     }
 
