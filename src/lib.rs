@@ -20,6 +20,8 @@ pub mod marching_cubes;
 pub mod mesh;
 pub mod mesh_checks;
 pub mod morphology;
+#[cfg(feature = "ndarray")]
+pub mod ndarray_volume;
 pub mod phantom;
 pub mod predicates;
 #[cfg(feature = "io")]
@@ -37,5 +39,7 @@ pub mod winding_number;
 pub use error::{Error, ErrorKind, Result};
 pub use geometry::Geometry;
 pub use mesh::TriMesh;
+#[cfg(feature = "ndarray")]
+pub use ndarray_volume::AxisOrder;
 pub use signed_distance::{signed_distance, SignedDistanceOptions};
 pub use volume::{Image, Scalar, ScalarType, TypedVolume, Volume, VoxelBuffer, VoxelVisitor};
