@@ -15,6 +15,8 @@ pub mod geometry;
 pub mod io;
 mod kernels;
 pub mod mesh;
+#[cfg(feature = "ndarray")]
+pub mod ndarray_volume;
 pub mod phantom;
 #[cfg(feature = "io")]
 pub mod render;
@@ -31,5 +33,7 @@ pub use kernels::{
 pub use error::{Error, ErrorKind, Result};
 pub use geometry::Geometry;
 pub use mesh::TriMesh;
+#[cfg(feature = "ndarray")]
+pub use ndarray_volume::AxisOrder;
 pub use signed_distance::{signed_distance, SignedDistanceOptions};
 pub use volume::{Image, Scalar, ScalarType, TypedVolume, Volume, VoxelBuffer, VoxelVisitor};

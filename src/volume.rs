@@ -7,6 +7,9 @@
 //! convention (VTK, ITK), but any stride order works. Algorithms that need typed access use
 //! [`Volume::dispatch`] with a [`VoxelVisitor`], which monomorphises them per scalar type.
 
+use std::marker::PhantomData;
+use std::ptr::NonNull;
+
 use glam::DVec3;
 
 use crate::error::{Error, Result};
@@ -111,15 +114,27 @@ impl Scalar for f64 {
 }
 
 /// A typed, borrowed, strided 3-D array with its geometry.
+///
+/// It holds a pointer to voxel (0, 0, 0) rather than a slice: a slice would span every element
+/// between the lowest and highest addressed one, and with steps those in between may belong to
+/// someone else (the other half of an ndarray `multi_slice_mut`), whom a shared slice over them
+/// would alias. It borrows only the addressed voxels, for `'a`, as `&'a [T]` would.
 #[derive(Debug, Clone, Copy)]
 pub struct TypedVolume<'a, T> {
-    data: &'a [T],
-    /// Element index in `data` of voxel (0, 0, 0).
-    base: usize,
+    /// Voxel (0, 0, 0); voxel (i, j, k) is at `first + i·s0 + j·s1 + k·s2`.
+    first: NonNull<T>,
     dims: [usize; 3],
     strides: [isize; 3],
     geometry: Geometry,
+    voxels: PhantomData<&'a [T]>,
 }
+
+// SAFETY: a TypedVolume only reads its voxels, through shared access borrowed for 'a, like the
+// `&'a [T]` it stands for: sending it to or sharing it with another thread is sending or sharing
+// that borrow, which is safe when T is Sync.
+unsafe impl<T: Sync> Send for TypedVolume<'_, T> {}
+// SAFETY: as for Send; `&self` methods only read the voxels.
+unsafe impl<T: Sync> Sync for TypedVolume<'_, T> {}
 
 impl<'a, T: Scalar> TypedVolume<'a, T> {
     /// A view of `data` where voxel (i, j, k) is `data[base + i·s0 + j·s1 + k·s2]`.
@@ -133,14 +148,21 @@ impl<'a, T: Scalar> TypedVolume<'a, T> {
         strides: [isize; 3],
         geometry: Geometry,
     ) -> Result<Self> {
-        check_layout(data.len(), base, dims, strides)?;
-        Ok(TypedVolume {
-            data,
-            base,
-            dims,
-            strides,
-            geometry,
-        })
+        let (lowest, highest) = address_range(dims, strides)?;
+        let len = data.len();
+        let (lowest, highest) = (base as i128 + lowest, base as i128 + highest);
+        if lowest < 0 || highest >= len as i128 {
+            return Err(Error::invalid_volume(format!(
+                "dims {dims:?} with strides {strides:?} (elements) from element {base} address \
+                 elements {lowest}..={highest}, outside the {len} elements of the buffer; check \
+                 the strides' units (elements, not bytes) and their order (i fastest)"
+            )));
+        }
+        // SAFETY: every addressed element, voxel (0, 0, 0) at `base` among them, was just found
+        // inside `data`, which is borrowed for 'a.
+        let view =
+            unsafe { Self::from_raw_parts(data.as_ptr().add(base), dims, strides, geometry) };
+        Ok(view)
     }
 
     /// A contiguous view with i fastest (VTK/ITK order, numpy `volume[k, j, i]` in C order).
@@ -148,6 +170,27 @@ impl<'a, T: Scalar> TypedVolume<'a, T> {
         let s1 = dims[0] as isize;
         let s2 = s1.checked_mul(dims[1] as isize).unwrap_or(isize::MAX);
         Self::new(data, 0, dims, [1, s1, s2], geometry)
+    }
+
+    /// The view whose voxel (i, j, k) is at `first + i·s0 + j·s1 + k·s2`.
+    ///
+    /// # Safety
+    /// [`address_range`] accepted `dims` and `strides`, and every voxel address points to an
+    /// initialised, aligned `T` inside one allocation, readable and not written for `'a`.
+    pub(crate) unsafe fn from_raw_parts(
+        first: *const T,
+        dims: [usize; 3],
+        strides: [isize; 3],
+        geometry: Geometry,
+    ) -> Self {
+        TypedVolume {
+            // SAFETY: the grid has a voxel (0, 0, 0), and it points into an allocation.
+            first: unsafe { NonNull::new_unchecked(first.cast_mut()) },
+            dims,
+            strides,
+            geometry,
+            voxels: PhantomData,
+        }
     }
 
     pub fn dims(&self) -> [usize; 3] {
@@ -166,29 +209,47 @@ impl<'a, T: Scalar> TypedVolume<'a, T> {
     #[inline(always)]
     pub fn get(&self, i: usize, j: usize, k: usize) -> T {
         assert!(i < self.dims[0] && j < self.dims[1] && k < self.dims[2]);
-        let offset = self.base as isize
-            + i as isize * self.strides[0]
+        let offset = i as isize * self.strides[0]
             + j as isize * self.strides[1]
             + k as isize * self.strides[2];
-        self.data[offset as usize]
+        // SAFETY: (i, j, k) is a voxel of the grid, and every voxel's address lies in the one
+        // allocation the constructor was promised, borrowed for 'a. Each partial sum of the
+        // offset lies between the lowest and highest address too, so none overflows.
+        unsafe { *self.first.as_ptr().offset(offset) }
     }
 
-    /// Whether the voxels are laid out contiguously with i fastest, so a row is a slice.
+    /// The row of voxels (0..dims[0], j, k) as a slice, when the voxels are laid out with
+    /// i fastest and contiguous; `None` otherwise. Panics when (j, k) is out of range.
     pub fn row(&self, j: usize, k: usize) -> Option<&'a [T]> {
         if self.strides[0] != 1 {
             return None;
         }
-        let start =
-            self.base as isize + j as isize * self.strides[1] + k as isize * self.strides[2];
-        let start = start as usize;
-        Some(&self.data[start..start + self.dims[0]])
+        assert!(j < self.dims[1] && k < self.dims[2]);
+        let start = j as isize * self.strides[1] + k as isize * self.strides[2];
+        // SAFETY: with an i-stride of 1 the slice's elements are exactly the row's voxels, all
+        // addressed, so all borrowed for 'a (and only those: the elements between rows, which
+        // may be someone else's, stay outside it).
+        Some(unsafe { std::slice::from_raw_parts(self.first.as_ptr().offset(start), self.dims[0]) })
     }
 
     /// Trilinear interpolation at a continuous index, the edge voxels' values held for half a
     /// voxel beyond them; `None` outside `[-0.5, dims-0.5]` on any axis.
     pub fn sample_index(&self, p: DVec3) -> Option<f64> {
         let cell = Cell::around(p, self.dims)?;
-        let corners = cell.corners().map(|[i, j, k]| self.get(i, j, k).to_f64());
+        let ([i0, j0, k0], [i1, j1, k1]) = (cell.lo, cell.hi);
+        let v = |i, j, k| self.get(i, j, k).to_f64();
+        // Spelled out rather than mapped over `Cell::corners`, whose closure the compiler does
+        // not always inline here; the same order, x fastest.
+        let corners = [
+            v(i0, j0, k0),
+            v(i1, j0, k0),
+            v(i0, j1, k0),
+            v(i1, j1, k0),
+            v(i0, j0, k1),
+            v(i1, j0, k1),
+            v(i0, j1, k1),
+            v(i1, j1, k1),
+        ];
         Some(cell.interpolate(corners))
     }
 
@@ -259,8 +320,10 @@ impl Cell {
     }
 }
 
-/// Checks that every voxel address `base + Σ idx·stride` of a `dims` grid lies in `[0, len)`.
-fn check_layout(len: usize, base: usize, dims: [usize; 3], strides: [isize; 3]) -> Result<()> {
+/// The lowest and highest element offset from voxel (0, 0, 0) that a `dims` grid with
+/// `strides` addresses, once checked that the grid has voxels and that their count fits an
+/// `isize`.
+pub(crate) fn address_range(dims: [usize; 3], strides: [isize; 3]) -> Result<(i128, i128)> {
     if let Some(axis) = dims.iter().position(|&d| d == 0) {
         return Err(Error::invalid_volume(format!(
             "dims[{axis}] is 0; a volume needs at least one voxel along every axis (dims {dims:?})"
@@ -275,9 +338,8 @@ fn check_layout(len: usize, base: usize, dims: [usize; 3], strides: [isize; 3]) 
             "dims {dims:?} overflow the address space"
         )));
     }
-    // The lowest and highest addressed element, in i128 so that no product can overflow.
-    let mut lowest = base as i128;
-    let mut highest = base as i128;
+    // In i128 so that no product can overflow.
+    let (mut lowest, mut highest) = (0i128, 0i128);
     for a in 0..3 {
         let extent = (dims[a] as i128 - 1) * strides[a] as i128;
         if extent < 0 {
@@ -286,14 +348,7 @@ fn check_layout(len: usize, base: usize, dims: [usize; 3], strides: [isize; 3]) 
             highest += extent;
         }
     }
-    if lowest < 0 || highest >= len as i128 {
-        return Err(Error::invalid_volume(format!(
-            "dims {dims:?} with strides {strides:?} (elements) from element {base} address \
-             elements {lowest}..={highest}, outside the {len} elements of the buffer; check the \
-             strides' units (elements, not bytes) and their order (i fastest)"
-        )));
-    }
-    Ok(())
+    Ok((lowest, highest))
 }
 
 /// A volume of any supported scalar type.
