@@ -172,12 +172,15 @@ impl<'a, T: Scalar> TypedVolume<'a, T> {
         Self::new(data, 0, dims, [1, s1, s2], geometry)
     }
 
-    /// The view whose voxel (i, j, k) is at `first + i·s0 + j·s1 + k·s2`.
+    /// The view whose voxel (i, j, k) is at `first + i·s0 + j·s1 + k·s2` (strides in elements),
+    /// for voxels in memory the caller manages (the C ABI's volumes); only the addressed
+    /// elements are borrowed, never the ones between them.
     ///
     /// # Safety
-    /// [`address_range`] accepted `dims` and `strides`, and every voxel address points to an
-    /// initialised, aligned `T` inside one allocation, readable and not written for `'a`.
-    pub(crate) unsafe fn from_raw_parts(
+    /// Every dim is at least 1, no voxel's offset `i·s0 + j·s1 + k·s2` (nor any partial sum of
+    /// it) overflows `isize`, and every voxel address points to an initialised, aligned `T`
+    /// inside one allocation, readable and not written for `'a`.
+    pub unsafe fn from_raw_parts(
         first: *const T,
         dims: [usize; 3],
         strides: [isize; 3],

@@ -58,21 +58,14 @@ pub(crate) fn scalar_type_from_c(value: u32) -> Result<ScalarType, Failure> {
     })
 }
 
-/// Where the addressed elements lie around `data`: `back` elements before it, `len` in all.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) struct Span {
-    pub back: usize,
-    pub len: usize,
-}
-
-/// The span of the elements `Σ idx·stride` a `dims` grid addresses, checked to fit the address
-/// space around `address` (the byte address of element (0, 0, 0)).
-pub(crate) fn span(
+/// Checks that the elements `Σ idx·stride` a `dims` grid addresses around `address` (the byte
+/// address of element (0, 0, 0)) fit the address space without wrapping.
+pub(crate) fn check_addresses(
     dims: [usize; 3],
     strides: [isize; 3],
     element_size: usize,
     address: usize,
-) -> Result<Span, Error> {
+) -> Result<(), Error> {
     if let Some(axis) = dims.iter().position(|&d| d == 0) {
         return Err(Error::invalid_volume(format!(
             "dims[{axis}] is 0 (dims {dims:?}); a volume needs at least one voxel along every axis"
@@ -110,10 +103,7 @@ pub(crate) fn span(
              bytes) and their order (i, j, k)"
         )));
     }
-    Ok(Span {
-        back: (-lowest) as usize,
-        len: (highest - lowest + 1) as usize,
-    })
+    Ok(())
 }
 
 /// The volume `volume` describes, borrowing its voxels.
@@ -151,7 +141,7 @@ where
     Volume<'v>: From<TypedVolume<'v, T>>,
 {
     let address = v.data as usize;
-    let span = span(v.dims, v.strides, size_of::<T>(), address)?;
+    check_addresses(v.dims, v.strides, size_of::<T>(), address)?;
     if address % align_of::<T>() != 0 {
         return Err(Error::invalid_volume(format!(
             "data ({:p}) is not aligned for {} voxels ({} bytes); pass an aligned buffer",
@@ -161,13 +151,13 @@ where
         ))
         .into());
     }
-    // SAFETY: `span` checked that the addressed elements fit in the address space without
-    // wrapping; the caller promises they are its voxels, alive for 'v.
-    let data = unsafe {
-        let first = v.data.cast::<T>().sub(span.back);
-        std::slice::from_raw_parts(first, span.len)
-    };
-    Ok(TypedVolume::new(data, span.back, v.dims, v.strides, geometry)?.into())
+    // SAFETY: `check_addresses` checked what `address_range` checks (a voxel on every axis, extents that do
+    // not overflow) and that the addressed elements fit in the address space without wrapping;
+    // the caller promises they are its voxels, alive and unchanged for 'v. No slice spans the
+    // buffer: the elements between the addressed ones (a stepped view) may be written by others.
+    let view =
+        unsafe { TypedVolume::from_raw_parts(v.data.cast::<T>(), v.dims, v.strides, geometry) };
+    Ok(view.into())
 }
 
 #[cfg(test)]
@@ -308,16 +298,16 @@ mod tests {
     }
 
     #[test]
-    fn spans_count_negative_strides_backwards_from_data() {
-        let s = span([4, 3, 2], [1, -4, 12], 2, 1 << 20).unwrap();
-        assert_eq!(s, Span { back: 8, len: 24 });
+    fn addresses_count_negative_strides_backwards_from_data() {
+        // Elements -8..=15 around element (0, 0, 0), 2 bytes each: 16 bytes before data, 32
+        // from it to the end.
+        let check = |address| check_addresses([4, 3, 2], [1, -4, 12], 2, address);
+        assert!(check(1 << 20).is_ok());
         assert!(
-            span([4, 3, 2], [1, -4, 12], 2, 15).is_err(),
+            check(16).is_ok() && check(15).is_err(),
             "would start below address 0"
         );
-        assert!(
-            span([2, 2, 2], [1, 2, 4], 8, usize::MAX - 8).is_err(),
-            "wraps past the top"
-        );
+        assert!(check(usize::MAX - 32).is_ok());
+        assert!(check(usize::MAX - 31).is_err(), "wraps past the top");
     }
 }
