@@ -24,6 +24,7 @@
 #include <balloonseg.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -74,6 +75,24 @@ bool ToBalloonScalarType(int vtkType, uint32_t* out)
 }
 
 // "what: STATUS: the library's message".
+/// A BalloonParams field's name as the filter's Set/Get spell it: edge_length_mm -> EdgeLengthMm.
+std::string CamelCase(const char* field)
+{
+  std::string name;
+  bool upper = true;
+  for (const char* c = field; *c; ++c)
+  {
+    if (*c == '_')
+    {
+      upper = true;
+      continue;
+    }
+    name += upper ? static_cast<char>(std::toupper(static_cast<unsigned char>(*c))) : *c;
+    upper = false;
+  }
+  return name;
+}
+
 std::string FailureMessage(const char* what, BalloonStatus status)
 {
   std::string message = std::string(what) + ": " + balloon_status_string(status);
@@ -113,48 +132,10 @@ vtkBalloonSegmentation::vtkBalloonSegmentation()
   , LastReparametrizations(0)
   , LastSeconds(0.0)
 {
-  BalloonParams defaults{};
-  balloon_params_default(&defaults);
-  this->ReferenceIntensity = defaults.reference_intensity;
-  this->Tolerance = defaults.tolerance;
-  this->EdgeLengthMm = defaults.edge_length_mm;
-  this->ElasticWeight = defaults.elastic_weight;
-  this->BendingWeight = defaults.bending_weight;
-  this->InflationWeight = defaults.inflation_weight;
-  this->StepFraction = defaults.step_fraction;
-  this->MaxIterations = defaults.max_iterations;
-  this->SelfIntersectionInterval = defaults.self_intersection_interval;
-  this->RefinementIterations = defaults.refinement_iterations;
-  this->MaxReparametrizations = defaults.max_reparametrizations;
-  this->MaxVertices = defaults.max_vertices;
-  this->Threads = defaults.threads;
+  // Fails only on a NULL pointer.
+  balloon_params_default(&this->Params);
   this->SetInputArrayToProcess(0, 0, 0, vtkDataObject::FIELD_ASSOCIATION_POINTS,
     vtkDataSetAttributes::SCALARS);
-}
-
-void vtkBalloonSegmentation::SetEstimable(double& field, double value)
-{
-  const bool same = (std::isnan(field) && std::isnan(value)) || field == value;
-  if (!same)
-  {
-    field = value;
-    this->Modified();
-  }
-}
-
-void vtkBalloonSegmentation::SetReferenceIntensity(double value)
-{
-  this->SetEstimable(this->ReferenceIntensity, value);
-}
-
-void vtkBalloonSegmentation::SetTolerance(double value)
-{
-  this->SetEstimable(this->Tolerance, value);
-}
-
-void vtkBalloonSegmentation::SetEdgeLengthMm(double value)
-{
-  this->SetEstimable(this->EdgeLengthMm, value);
 }
 
 void vtkBalloonSegmentation::SetSeed(double x, double y, double z)
@@ -283,27 +264,8 @@ int vtkBalloonSegmentation::RequestData(
     volume.direction[e] = direction[e];
   }
 
-  BalloonParams params;
-  BalloonStatus status = balloon_params_default(&params);
-  params.reference_intensity = this->ReferenceIntensity;
-  params.tolerance = this->Tolerance;
-  params.edge_length_mm = this->EdgeLengthMm;
-  params.elastic_weight = this->ElasticWeight;
-  params.bending_weight = this->BendingWeight;
-  params.inflation_weight = this->InflationWeight;
-  params.step_fraction = this->StepFraction;
-  params.max_iterations = this->MaxIterations;
-  params.self_intersection_interval = this->SelfIntersectionInterval;
-  params.refinement_iterations = this->RefinementIterations;
-  params.max_reparametrizations = this->MaxReparametrizations;
-  params.max_vertices = this->MaxVertices;
-  params.threads = this->Threads;
-
   BalloonSegmenter* raw = nullptr;
-  if (status == BALLOON_OK)
-  {
-    status = balloon_init(&volume, &params, this->Seeds.data(), &raw);
-  }
+  BalloonStatus status = balloon_init(&volume, &this->Params, this->Seeds.data(), &raw);
   SegmenterPtr segmenter(raw);
   if (status != BALLOON_OK)
   {
@@ -403,19 +365,18 @@ void vtkBalloonSegmentation::PrintSelf(ostream& os, vtkIndent indent)
        << ")";
   }
   os << "\n";
-  os << indent << "ReferenceIntensity: " << this->ReferenceIntensity << "\n";
-  os << indent << "Tolerance: " << this->Tolerance << "\n";
-  os << indent << "EdgeLengthMm: " << this->EdgeLengthMm << "\n";
-  os << indent << "ElasticWeight: " << this->ElasticWeight << "\n";
-  os << indent << "BendingWeight: " << this->BendingWeight << "\n";
-  os << indent << "InflationWeight: " << this->InflationWeight << "\n";
-  os << indent << "StepFraction: " << this->StepFraction << "\n";
-  os << indent << "MaxIterations: " << this->MaxIterations << "\n";
-  os << indent << "SelfIntersectionInterval: " << this->SelfIntersectionInterval << "\n";
-  os << indent << "RefinementIterations: " << this->RefinementIterations << "\n";
-  os << indent << "MaxReparametrizations: " << this->MaxReparametrizations << "\n";
-  os << indent << "MaxVertices: " << this->MaxVertices << "\n";
-  os << indent << "Threads: " << this->Threads << "\n";
+  // The parameters as the library's table names them, so a new one prints without an edit here.
+  for (size_t i = 0; i < balloon_param_count(); ++i)
+  {
+    BalloonParamInfo info{};
+    info.struct_size = sizeof info;
+    double value = 0;
+    if (balloon_param_info(i, &info) == BALLOON_OK &&
+      balloon_params_get(&this->Params, info.name, &value) == BALLOON_OK)
+    {
+      os << indent << CamelCase(info.name) << ": " << value << "\n";
+    }
+  }
   os << indent << "LastReferenceIntensity: " << this->LastReferenceIntensity << "\n";
   os << indent << "LastTolerance: " << this->LastTolerance << "\n";
   os << indent << "LastIterations: " << this->LastIterations << "\n";

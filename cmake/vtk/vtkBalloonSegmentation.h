@@ -27,8 +27,24 @@
 #include "vtkBalloonSegmentationExport.h"
 #include "vtkPolyDataAlgorithm.h"
 
+#include <balloonseg.h>
+
+#include <cmath>
 #include <cstdint>
 #include <vector>
+
+/// Set<name>/Get<name> for the field `field` of the filter's BalloonParams: one line per
+/// parameter, so the parameters live in one struct that is handed to the library as it is.
+#define vtkBalloonParameterMacro(name, field, type)                                             \
+  void Set##name(type value)                                                                   \
+  {                                                                                            \
+    if (!vtkBalloonSegmentation::SameValue(this->Params.field, value))                          \
+    {                                                                                          \
+      this->Params.field = value;                                                              \
+      this->Modified();                                                                        \
+    }                                                                                          \
+  }                                                                                            \
+  type Get##name() const { return this->Params.field; }
 
 class VTKBALLOONSEGMENTATION_EXPORT vtkBalloonSegmentation : public vtkPolyDataAlgorithm
 {
@@ -50,36 +66,23 @@ public:
   ///@}
 
   ///@{
-  /// The library's BalloonParams, one field each (defaults from balloon_params_default).
-  /// NaN = estimate (the default). Setting NaN again does not call Modified(): unlike
-  /// vtkSetMacro, these setters treat NaN as equal to NaN.
-  void SetReferenceIntensity(double value);
-  vtkGetMacro(ReferenceIntensity, double);
-  void SetTolerance(double value);
-  vtkGetMacro(Tolerance, double);
-  void SetEdgeLengthMm(double value);
-  vtkGetMacro(EdgeLengthMm, double);
-  vtkSetMacro(ElasticWeight, double);
-  vtkGetMacro(ElasticWeight, double);
-  vtkSetMacro(BendingWeight, double);
-  vtkGetMacro(BendingWeight, double);
-  vtkSetMacro(InflationWeight, double);
-  vtkGetMacro(InflationWeight, double);
-  vtkSetMacro(StepFraction, double);
-  vtkGetMacro(StepFraction, double);
-  vtkSetMacro(MaxIterations, unsigned int);
-  vtkGetMacro(MaxIterations, unsigned int);
-  vtkSetMacro(SelfIntersectionInterval, unsigned int);
-  vtkGetMacro(SelfIntersectionInterval, unsigned int);
-  vtkSetMacro(RefinementIterations, unsigned int);
-  vtkGetMacro(RefinementIterations, unsigned int);
-  vtkSetMacro(MaxReparametrizations, unsigned int);
-  vtkGetMacro(MaxReparametrizations, unsigned int);
-  vtkSetMacro(MaxVertices, vtkTypeUInt64);
-  vtkGetMacro(MaxVertices, vtkTypeUInt64);
-  /// 0 = all cores.
-  vtkSetMacro(Threads, unsigned int);
-  vtkGetMacro(Threads, unsigned int);
+  /// The library's BalloonParams, one Set/Get pair per field (the names: docs/interfaces.md,
+  /// "Parameters"; the defaults from balloon_params_default). NaN for ReferenceIntensity,
+  /// Tolerance and EdgeLengthMm = estimate (the default). A setter calls Modified() only when
+  /// the value changes, and unlike vtkSetMacro takes NaN as equal to NaN.
+  vtkBalloonParameterMacro(ReferenceIntensity, reference_intensity, double);
+  vtkBalloonParameterMacro(Tolerance, tolerance, double);
+  vtkBalloonParameterMacro(EdgeLengthMm, edge_length_mm, double);
+  vtkBalloonParameterMacro(ElasticWeight, elastic_weight, double);
+  vtkBalloonParameterMacro(BendingWeight, bending_weight, double);
+  vtkBalloonParameterMacro(InflationWeight, inflation_weight, double);
+  vtkBalloonParameterMacro(StepFraction, step_fraction, double);
+  vtkBalloonParameterMacro(MaxIterations, max_iterations, unsigned int);
+  vtkBalloonParameterMacro(SelfIntersectionInterval, self_intersection_interval, unsigned int);
+  vtkBalloonParameterMacro(RefinementIterations, refinement_iterations, unsigned int);
+  vtkBalloonParameterMacro(MaxReparametrizations, max_reparametrizations, unsigned int);
+  vtkBalloonParameterMacro(MaxVertices, max_vertices, vtkTypeUInt64);
+  vtkBalloonParameterMacro(Threads, threads, unsigned int); // 0 = all cores
   ///@}
 
   ///@{
@@ -102,19 +105,7 @@ protected:
 
   std::vector<double> Seeds; // x, y, z per seed
 
-  double ReferenceIntensity;
-  double Tolerance;
-  double EdgeLengthMm;
-  double ElasticWeight;
-  double BendingWeight;
-  double InflationWeight;
-  double StepFraction;
-  unsigned int MaxIterations;
-  unsigned int SelfIntersectionInterval;
-  unsigned int RefinementIterations;
-  unsigned int MaxReparametrizations;
-  vtkTypeUInt64 MaxVertices;
-  unsigned int Threads;
+  BalloonParams Params;
 
   double LastReferenceIntensity;
   double LastTolerance;
@@ -123,7 +114,12 @@ protected:
   double LastSeconds;
 
 private:
-  void SetEstimable(double& field, double value);
+  static bool SameValue(double a, double b) { return a == b || (std::isnan(a) && std::isnan(b)); }
+  template <typename T>
+  static bool SameValue(T a, T b)
+  {
+    return a == b;
+  }
   vtkBalloonSegmentation(const vtkBalloonSegmentation&) = delete;
   void operator=(const vtkBalloonSegmentation&) = delete;
 };
