@@ -664,5 +664,7 @@ TEST(VtkFilter, ReexecutesOnlyWhenSomethingChanged)
   std::ostringstream printed;
   filter->Print(printed);
   EXPECT_NE(printed.str().find("EdgeLengthMm: 2"), std::string::npos) << printed.str();
+  EXPECT_NE(printed.str().find("MaxVertices: 1000000\n"), std::string::npos)
+    << "whole-number parameters print as integers";
 }
 } // namespace

@@ -374,7 +374,15 @@ void vtkBalloonSegmentation::PrintSelf(ostream& os, vtkIndent indent)
     if (balloon_param_info(i, &info) == BALLOON_OK &&
       balloon_params_get(&this->Params, info.name, &value) == BALLOON_OK)
     {
-      os << indent << CamelCase(info.name) << ": " << value << "\n";
+      os << indent << CamelCase(info.name) << ": ";
+      if (info.kind == BALLOON_PARAM_INTEGER)
+      {
+        os << static_cast<vtkTypeUInt64>(value) << "\n";
+      }
+      else
+      {
+        os << value << "\n";
+      }
     }
   }
   os << indent << "LastReferenceIntensity: " << this->LastReferenceIntensity << "\n";
