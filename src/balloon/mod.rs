@@ -11,6 +11,7 @@
 //! | step 3, re-parametrisation (section 3) | `reparametrization`: signed distance and marching cubes |
 //! | step 4, refinement (section 3) | [`inflation`] again, from the new surface |
 //! | what follows | `finishing`: the touching cut, fairing, settling, the curvature offset, validation |
+//! | the conclusion's future work: balloons from several seeds that stop at each other | [`objects`] |
 //!
 //! [`Segmenter`] drives them (`segmenter`), step by step or to completion, with [`params`] and
 //! [`progress`].
@@ -20,13 +21,16 @@ mod fast_hash;
 mod finishing;
 pub mod image_model;
 pub mod inflation;
+pub mod objects;
 pub mod params;
 pub mod progress;
 mod reparametrization;
 mod segmenter;
 pub mod surface;
 
+pub use image_model::region::Region;
 pub use inflation::forces::ForceWeights;
+pub use objects::{segment_objects, ObjectSeeds, ObjectsRequest, SegmentedObject};
 pub use params::BalloonParams;
 pub use progress::{Phase, PhaseSeconds, ProgressCallback};
 pub use segmenter::{SegmentationStats, Segmenter};

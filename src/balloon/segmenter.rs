@@ -16,20 +16,25 @@
 //! Each segmenter has its own thread pool of the requested size, and every result is the
 //! same for any size.
 
+use std::sync::Arc;
+
 use glam::DVec3;
 
 use crate::balloon::contacts::search::FrozenTriangles;
 use crate::balloon::image_model::border::{Border, ImageScales, IntensityWindow};
 use crate::balloon::image_model::hounsfield;
+use crate::balloon::image_model::region::Region;
 use crate::balloon::image_model::seed_statistics::{self, SeedStatistics};
 use crate::balloon::image_model::thin_layer;
 use crate::balloon::inflation::stepper::Scratch;
 use crate::balloon::inflation::FIRST_LEAK_CHECK;
+use crate::balloon::objects::obstacle::Obstacle;
 use crate::balloon::params::BalloonParams;
 use crate::balloon::progress::{Phase, PhaseSeconds, ProgressCallback};
 use crate::balloon::reparametrization::AfterReparametrization;
 use crate::balloon::surface::{Surface, VertexState};
 use crate::error::{Error, Result};
+use crate::geometry::Geometry;
 use crate::mesh::TriMesh;
 use crate::volume::Volume;
 
@@ -62,6 +67,15 @@ fn smallest_valley(step: f64, estimate: Option<&SeedStatistics>) -> f64 {
     estimate.map_or(0.0, |s| {
         (VALLEY_STEP_SHARE * step).max(VALLEY_TEXTURE * s.texture)
     })
+}
+
+fn outside_region(seed: DVec3, region: Region) -> Error {
+    Error::invalid_argument(format!(
+        "the seed {seed} mm is outside the region of interest {} – {} mm; move the seed or \
+         widen the region",
+        region.lo(),
+        region.hi()
+    ))
 }
 
 /// What a run did, besides the mesh.
@@ -116,6 +130,8 @@ pub struct Segmenter<'v, 'p> {
     /// times the last look's.
     pub(super) next_leak_check: usize,
     pub(super) stats: SegmentationStats,
+    /// The final surfaces of other objects that this one's final surface must not meet.
+    pub(super) apart_from: Vec<Arc<Obstacle>>,
     pub(super) pool: rayon::ThreadPool,
     pub(super) progress: Option<ProgressCallback<'p>>,
 }
@@ -188,6 +204,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                 reparametrizations: 0,
                 seconds: PhaseSeconds::default(),
             },
+            apart_from: Vec::new(),
             pool,
             progress: None,
             params,
@@ -210,9 +227,46 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         Ok(())
     }
 
+    /// Keeps the balloon inside `region` from now on: its faces stop it as the volume's do.
+    pub fn restrict_to(&mut self, region: Region) -> Result<()> {
+        if let Some(seed) = self.seeds.iter().find(|&&seed| !region.contains(seed)) {
+            return Err(outside_region(*seed, region));
+        }
+        self.image.restrict_to(Some(region));
+        Ok(())
+    }
+
+    /// The balloon keeps `clearance` (mm) away from `obstacles`, the other objects, instead
+    /// of those before.
+    pub(super) fn set_obstacles(&mut self, obstacles: Vec<Arc<Obstacle>>, clearance: f64) {
+        self.image.set_obstacles(obstacles, clearance);
+    }
+
+    /// The final surfaces of other objects that the final surface must not meet.
+    pub(super) fn keep_apart_from(&mut self, finished: Vec<Arc<Obstacle>>) {
+        self.apart_from = finished;
+    }
+
+    /// The balloon as an obstacle to other objects, with exact distances within `reach` mm.
+    pub(super) fn as_obstacle(&self, reach: f64) -> Obstacle {
+        Obstacle::new(
+            self.surface
+                .triangles()
+                .map(|(t, _)| self.surface.triangle_corners(t).expect("live")),
+            reach,
+        )
+    }
+
+    pub(super) fn seeds(&self) -> &[DVec3] {
+        &self.seeds
+    }
+
     /// The seed must be where the balloon sees the structure: inside the window on the
-    /// smoothed image.
+    /// smoothed image, and inside the region of interest.
     fn check_seed(&self, seed: DVec3) -> Result<()> {
+        if let Some(region) = self.image.region().filter(|r| !r.contains(seed)) {
+            return Err(outside_region(seed, region));
+        }
         let window = self.border.window;
         match self.image.fine.sample_world(seed) {
             None => Err(Error::invalid_argument(format!(
@@ -227,6 +281,14 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             ))),
             Some(_) => Ok(()),
         }
+    }
+
+    pub fn params(&self) -> &BalloonParams {
+        &self.params
+    }
+
+    pub(super) fn volume_geometry(&self) -> &Geometry {
+        self.volume.geometry()
     }
 
     pub fn stats(&self) -> &SegmentationStats {
@@ -262,8 +324,14 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     /// of `max_iterations`): contacts freeze the parts of the front that meet, and the rest of
     /// the front, frozen with them before the re-parametrisation, must go on growing.
     pub fn segment(&mut self) -> Result<(TriMesh, Vec<VertexState>)> {
-        let mut budget = self.params.max_iterations;
-        budget -= self.inflate(Phase::Inflation, budget)?;
+        let budget = self.params.max_iterations;
+        let used = self.inflate(Phase::Inflation, budget)?;
+        self.finish(budget - used)
+    }
+
+    /// What follows the first inflation, with `budget` steps of `max_iterations` left: contacts,
+    /// re-parametrisation and refinement, the touching cut, fairing and validation.
+    pub(super) fn finish(&mut self, mut budget: u32) -> Result<(TriMesh, Vec<VertexState>)> {
         self.freeze_self_intersections()?;
         while self.has_self_intersections()
             && self.stats.reparametrizations < self.params.max_reparametrizations

@@ -38,17 +38,27 @@ impl Segmenter<'_, '_> {
     /// Cuts off the structures the balloon entered through an elongated contact with the
     /// seeds' structure (`touching`), with cores eroded by `TOUCHING_EDGE_LENGTHS` target edge
     /// lengths: the paper ties the triangle size to the scale of the smallest structure.
-    pub(super) fn cut_touching(&mut self, next: AfterReparametrization) -> Result<()> {
+    /// Returns whether it cut anything off.
+    pub(super) fn cut_touching(&mut self, next: AfterReparametrization) -> Result<bool> {
         self.timed(Phase::Reparametrization, |s| {
             s.report(0.9, Phase::Reparametrization)?;
             let (mesh, _) = s.mesh();
             let geometry = *s.volume.geometry();
             let radius = TOUCHING_EDGE_LENGTHS * s.edge_length;
-            let (seeds, earlier) = (&s.seeds, s.image.excluded());
-            if let Some(cut) = s
-                .pool
-                .install(|| cut_touching(&mesh, &geometry, seeds, radius, earlier))?
-            {
+            let (seeds, image) = (&s.seeds, &s.image);
+            let free_depth = |p| image.free_depth(p);
+            let constrained = image.region().is_some() || !image.obstacles().is_empty();
+            let free_depth = constrained.then_some(&free_depth as _);
+            if let Some(cut) = s.pool.install(|| {
+                cut_touching(
+                    &mesh,
+                    &geometry,
+                    seeds,
+                    radius,
+                    image.excluded(),
+                    free_depth,
+                )
+            })? {
                 s.image.exclude(cut.removed);
                 let mut surface = Surface::from_mesh(&cut.mesh)?;
                 match next {
@@ -58,8 +68,9 @@ impl Segmenter<'_, '_> {
                     AfterReparametrization::Refinement => s.freeze_outside_window(&mut surface),
                 }
                 s.replace_surface(surface);
+                return Ok(true);
             }
-            Ok(())
+            Ok(false)
         })
     }
 

@@ -25,7 +25,8 @@ use glam::{DMat3, DVec3};
 
 use crate::balloon::fast_hash::FastHash;
 use crate::balloon::reparametrization::isosurface::{
-    covering_grid, isosurface, keep_seeded_components, without_cavities,
+    covering_grid, isosurface, keep_inside_free_space, keep_seeded_components, without_cavities,
+    FreeDepth,
 };
 use crate::disjoint_sets::DisjointSets;
 use crate::error::Result;
@@ -103,6 +104,7 @@ pub(crate) fn cut_touching(
     seeds: &[DVec3],
     radius: f64,
     earlier: &HashSet<[i64; 3], FastHash>,
+    free_depth: Option<&FreeDepth<'_>>,
 ) -> Result<Option<Cut>> {
     // An isotropic grid of the smallest spacing: on a grid of 1.5 mm slices the depths would
     // be off by up to 0.75 mm, as much as the waist between two touching tubes.
@@ -182,6 +184,9 @@ pub(crate) fn cut_touching(
     removed.dedup();
     for n in cut {
         field[n] = outside;
+    }
+    if let Some(free_depth) = free_depth {
+        keep_inside_free_space(&mut field, dims, &grid, free_depth);
     }
     keep_seeded_components(&mut field, dims, &grid, seeds);
     Ok(Some(Cut {
@@ -835,7 +840,7 @@ mod tests {
         let g = Geometry::with_spacing([0.8, 0.8, 1.5], [0.0; 3]).unwrap();
         let tubes = capsules(true);
         let seed = DVec3::new(-4.0, 0.0, 0.0);
-        let cut = cut_touching(&tubes, &g, &[seed], 2.6, &HashSet::default())
+        let cut = cut_touching(&tubes, &g, &[seed], 2.6, &HashSet::default(), None)
             .unwrap()
             .expect("a cut")
             .mesh;
@@ -860,13 +865,14 @@ mod tests {
             &g,
             &[DVec3::new(0.0, 0.0, -10.0)],
             2.6,
-            &HashSet::default()
+            &HashSet::default(),
+            None,
         )
         .unwrap()
         .is_none());
         let sphere = icosphere(DVec3::ZERO, 6.0, 4);
         assert!(
-            cut_touching(&sphere, &g, &[DVec3::ZERO], 2.6, &HashSet::default())
+            cut_touching(&sphere, &g, &[DVec3::ZERO], 2.6, &HashSet::default(), None)
                 .unwrap()
                 .is_none()
         );
@@ -893,7 +899,7 @@ mod tests {
         let seed = DVec3::new(-4.0, 0.0, 0.0);
         let nothing_earlier = HashSet::default();
         assert!(
-            cut_touching(&balloon, &g, &[seed], 2.6, &nothing_earlier)
+            cut_touching(&balloon, &g, &[seed], 2.6, &nothing_earlier, None)
                 .unwrap()
                 .is_none(),
             "on its own, the stub is a branch"
@@ -910,7 +916,7 @@ mod tests {
                 }
             }
         }
-        let cut = cut_touching(&balloon, &g, &[seed], 2.6, &earlier)
+        let cut = cut_touching(&balloon, &g, &[seed], 2.6, &earlier, None)
             .unwrap()
             .expect("the stub cut off")
             .mesh;
@@ -1001,8 +1007,10 @@ mod tests {
         let g = Geometry::with_spacing([0.8, 0.8, 1.5], [0.0; 3]).unwrap();
         let tubes = capsules(true);
         let far = DVec3::new(0.0, 30.0, 0.0);
-        assert!(cut_touching(&tubes, &g, &[far], 2.6, &HashSet::default())
-            .unwrap()
-            .is_none());
+        assert!(
+            cut_touching(&tubes, &g, &[far], 2.6, &HashSet::default(), None)
+                .unwrap()
+                .is_none()
+        );
     }
 }

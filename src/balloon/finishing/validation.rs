@@ -1,9 +1,10 @@
-//! Validation of the finished surface: closed, 2-manifold, outward and free of
-//! self-intersections, or the finishing steps undone around the contacts, or one more
+//! Validation of the finished surface: closed, 2-manifold, outward, free of self-intersections
+//! and of crossings with other objects, or the finishing steps undone around the contacts, or one more
 //! re-parametrisation; and handles narrower than a voxel closed when the image cannot show them.
 
 use glam::DVec3;
 
+use crate::balloon::objects::obstacle::crossings;
 use crate::balloon::progress::Phase;
 use crate::balloon::reparametrization::isosurface::voxel_genus;
 use crate::balloon::reparametrization::AfterReparametrization;
@@ -30,7 +31,9 @@ impl Segmenter<'_, '_> {
     /// in turn is undone around the contacts, [`UNFAIR_ROUNDS`] times each, then the latest
     /// everywhere, and so on. Otherwise (or straight away if it stopped with contacts) one more
     /// re-parametrisation, without refinement or remeshing — a marching-cubes surface has no
-    /// contacts — checked again.
+    /// contacts — checked again. A marching-cubes surface that still crosses another object's
+    /// (the grid cannot follow that surface closer than its cells) is made again with the
+    /// clearance widened, up to a voxel.
     pub(in crate::balloon) fn validated(
         &mut self,
         mut earlier: Vec<Vec<DVec3>>,
@@ -46,7 +49,7 @@ impl Segmenter<'_, '_> {
             loop {
                 let (mesh, states) = s.mesh();
                 let report = mesh_checks::check(&mesh);
-                let pairs = s.pool.install(|| self_intersections(&mesh));
+                let pairs = s.contacts(&mesh)?;
                 if report.is_valid_closed_surface() && pairs.is_empty() {
                     let result = match report.genus() {
                         Some(genus) if genus > 0 && !repaired && report.components == 1 => s
@@ -72,10 +75,15 @@ impl Segmenter<'_, '_> {
                     }
                     continue;
                 }
+                let only_crossings = pairs.iter().all(|&(a, b)| a == b);
+                if repaired && only_crossings && s.image.widen_clearance() {
+                    s.replace_by_isosurface(AfterReparametrization::Nothing)?;
+                    continue;
+                }
                 if repaired {
                     return Err(Error::internal(format!(
                         "the segmentation failed its own checks (closed {}, manifold {}, outward {}, \
-                         {} s-intersecting pairs) even after re-parametrisation",
+                         {} intersecting pairs) even after re-parametrisation",
                         report.closed(),
                         report.manifold(),
                         report.outward(),
@@ -87,6 +95,16 @@ impl Segmenter<'_, '_> {
                 repaired = true;
             }
         })
+    }
+
+    /// The pairs of triangles of `mesh` (the current surface) that intersect, and each that
+    /// crosses another object's final surface as a pair with itself.
+    fn contacts(&self, mesh: &TriMesh) -> Result<Vec<(u32, u32)>> {
+        let mut pairs = self.pool.install(|| self_intersections(mesh));
+        let finished = &self.apart_from;
+        let crossing = self.pool.install(|| crossings(mesh, finished))?;
+        pairs.extend(crossing.into_iter().map(|t| (t, t)));
+        Ok(pairs)
     }
 
     /// The final surface `mesh` (of genus `genus`, enclosing `volume`) re-parametrised (without
@@ -116,10 +134,7 @@ impl Segmenter<'_, '_> {
         if report.is_valid_closed_surface()
             && report.genus().is_some_and(|g| g < genus && g >= least)
             && (report.signed_volume - volume).abs() <= KEPT_VOLUME * volume
-            && self
-                .pool
-                .install(|| self_intersections(&without_handles))
-                .is_empty()
+            && self.contacts(&without_handles)?.is_empty()
         {
             return Ok(Some((without_handles, states)));
         }

@@ -48,13 +48,20 @@
 //!   intensity) is beyond the border, and so are the voxels of structures cut off as leaks.
 
 use std::collections::HashSet;
+use std::sync::Arc;
 
 use glam::DVec3;
 
 use crate::balloon::fast_hash::FastHash;
+use crate::balloon::image_model::region::Region;
+use crate::balloon::objects::obstacle::Obstacle;
 use crate::smoothed_volume::SmoothedVolume;
 use crate::volume::Volume;
 
+/// The widest clearance from other objects (`ImageScales::widen_clearance`), in voxels of the
+/// largest spacing: a marching-cubes cell's half diagonal, beyond which its surface no longer
+/// depends on where inside the cell another surface runs.
+const WIDEST_CLEARANCE: f64 = 0.9;
 /// σ of the three smoothings, in smallest spacings.
 const FINE_VOXELS: f64 = 0.5;
 const MID_VOXELS: f64 = 1.0;
@@ -162,8 +169,8 @@ impl std::fmt::Display for IntensityWindow {
     }
 }
 
-/// The image at the three scales the balloon reads it at, and the voxels it may no longer
-/// enter.
+/// The image at the three scales the balloon reads it at, and where it may not go whatever
+/// the image: voxels cut off as leaks, beyond the region of interest, into other objects.
 pub(crate) struct ImageScales<'v> {
     pub fine: SmoothedVolume<'v>,
     /// Where local steps are measured (`Border::step_ahead`): a voxel of smoothing leaves a
@@ -173,6 +180,10 @@ pub(crate) struct ImageScales<'v> {
     /// Voxels of structures cut off as leaks (`touching`): the balloon found its way into them
     /// once through a neck, and would again.
     excluded: HashSet<[i64; 3], FastHash>,
+    region: Option<Region>,
+    /// The other objects' surfaces, and the distance (mm) the balloon keeps from them.
+    obstacles: Vec<Arc<Obstacle>>,
+    clearance: f64,
 }
 
 impl<'v> ImageScales<'v> {
@@ -185,7 +196,53 @@ impl<'v> ImageScales<'v> {
             // measured at the same scale (`seed_statistics`).
             coarse: SmoothedVolume::new(volume, COARSE_VOXELS * voxel),
             excluded: HashSet::default(),
+            region: None,
+            obstacles: Vec::new(),
+            clearance: 0.0,
         }
+    }
+
+    /// Keeps the balloon inside `region` from now on.
+    pub fn restrict_to(&mut self, region: Option<Region>) {
+        self.region = region;
+    }
+
+    pub fn region(&self) -> Option<Region> {
+        self.region
+    }
+
+    /// Keeps the balloon `clearance` (mm) away from `obstacles`, instead of those before.
+    pub fn set_obstacles(&mut self, obstacles: Vec<Arc<Obstacle>>, clearance: f64) {
+        self.obstacles = obstacles;
+        self.clearance = clearance;
+    }
+
+    /// Doubles the clearance from the other objects, up to [`WIDEST_CLEARANCE`] voxels;
+    /// whether it could.
+    pub fn widen_clearance(&mut self) -> bool {
+        let widest = WIDEST_CLEARANCE * self.fine.geometry().max_spacing();
+        if self.obstacles.is_empty() || self.clearance >= widest {
+            return false;
+        }
+        self.clearance = (2.0 * self.clearance).min(widest);
+        true
+    }
+
+    pub fn obstacles(&self) -> &[Arc<Obstacle>] {
+        &self.obstacles
+    }
+
+    /// How far (mm) `x` is inside the space the region and the other objects leave to the
+    /// balloon, negative outside it; `None` where neither is near (within an obstacle's reach,
+    /// or with a region at all).
+    pub fn free_depth(&self, x: DVec3) -> Option<f64> {
+        let region = self.region.map(|r| r.depth(x));
+        self.obstacles
+            .iter()
+            .filter_map(|o| o.signed_distance(x))
+            .map(|d| d - self.clearance)
+            .chain(region)
+            .reduce(f64::min)
     }
 
     /// Keeps the balloon out of these voxels (indices of the volume's grid) from now on.
@@ -198,14 +255,23 @@ impl<'v> ImageScales<'v> {
         &self.excluded
     }
 
-    /// Whether the voxel nearest to `x` (world mm) was excluded.
+    /// Whether the balloon may not go to `x` (world mm) whatever the image: the voxel nearest
+    /// to it was excluded, or it lies beyond the region or too close to another object.
     fn is_excluded(&self, x: DVec3) -> bool {
+        if self.is_blocked(x) {
+            return true;
+        }
         if self.excluded.is_empty() {
             return false;
         }
         let i = self.fine.geometry().world_to_index(x).round();
         self.excluded
             .contains(&[i.x as i64, i.y as i64, i.z as i64])
+    }
+
+    /// Whether another object or the region's edge keeps the balloon from `x`.
+    pub fn is_blocked(&self, x: DVec3) -> bool {
+        self.free_depth(x).is_some_and(|d| d < 0.0)
     }
 }
 

@@ -141,26 +141,53 @@ impl Segmenter<'_, '_> {
     /// place, between forces that balance, would otherwise keep the balloon going). Returns
     /// the steps taken.
     pub(super) fn inflate(&mut self, phase: Phase, limit: u32) -> Result<u32> {
-        let geometry = *self.volume.geometry();
-        let voxel_volume: f64 = geometry.spacing().iter().product();
-        let mut volume = self.surface.signed_volume();
-        for step in 1..=limit {
-            let report = self.one_step(phase)?;
-            if self.at_equilibrium(&report) {
-                return Ok(step);
-            }
-            if self.surface.vertex_count() >= self.next_leak_check {
-                self.next_leak_check = 2 * self.surface.vertex_count();
-                self.cut_touching(AfterReparametrization::Refinement)?;
-            }
-            if step % STALL_STEPS == 0 {
-                let now = self.surface.signed_volume();
-                if (now - volume).abs() < voxel_volume {
-                    return Ok(step);
-                }
-                volume = now;
-            }
-        }
-        Ok(limit)
+        let mut run = self.start_inflation(phase, limit);
+        while !self.continue_inflation(&mut run)? {}
+        Ok(run.steps)
     }
+
+    /// An inflation to be run a step at a time (`continue_inflation`), beside other balloons.
+    pub(in crate::balloon) fn start_inflation(&self, phase: Phase, limit: u32) -> Inflation {
+        Inflation {
+            phase,
+            limit,
+            steps: 0,
+            volume: self.surface.signed_volume(),
+        }
+    }
+
+    /// The next step of `run`; whether the inflation is over.
+    pub(in crate::balloon) fn continue_inflation(&mut self, run: &mut Inflation) -> Result<bool> {
+        if run.steps >= run.limit {
+            return Ok(true);
+        }
+        run.steps += 1;
+        let report = self.one_step(run.phase)?;
+        if self.at_equilibrium(&report) {
+            return Ok(true);
+        }
+        if self.surface.vertex_count() >= self.next_leak_check {
+            self.next_leak_check = 2 * self.surface.vertex_count();
+            self.cut_touching(AfterReparametrization::Refinement)?;
+        }
+        if run.steps % STALL_STEPS == 0 {
+            let voxel_volume: f64 = self.volume.geometry().spacing().iter().product();
+            let now = self.surface.signed_volume();
+            if (now - run.volume).abs() < voxel_volume {
+                return Ok(true);
+            }
+            run.volume = now;
+        }
+        Ok(run.steps >= run.limit)
+    }
+}
+
+/// Where an inflation stands.
+pub(in crate::balloon) struct Inflation {
+    phase: Phase,
+    limit: u32,
+    /// Steps taken.
+    pub steps: u32,
+    /// The enclosed volume at the last check for a stall.
+    volume: f64,
 }

@@ -110,6 +110,16 @@ impl Stepper<'_, '_> {
                 .place(self.image, p)
                 .is_some_and(|place| place.passable == here.passable)
         };
+        // Another object or the region's edge ahead: the step ends short of it, frozen there,
+        // unless the image stops the vertex first. The window's border is no guide to where
+        // the obstacle begins.
+        let mut arrived = VertexState::Moving;
+        if here.passable && self.image.is_blocked(x + dx) {
+            let (mut lo, mut hi) = (0.0, 1.0);
+            bisect(&mut lo, &mut hi, |t| !self.image.is_blocked(x + t * dx));
+            dx *= lo;
+            arrived = VertexState::FrozenAtBorder;
+        }
         let target = x + dx;
         if here.passable {
             if let Some(step) = self.border.step_ahead(self.image, x, target) {
@@ -124,7 +134,7 @@ impl Stepper<'_, '_> {
             }
         }
         if same_side(target) {
-            return (target, VertexState::Moving);
+            return (target, arrived);
         }
         // The border (or the volume's edge) lies in (x, target]: bisect onto it. From inside
         // the window, first onto where the fine image leaves it, which needs no coarse sample
@@ -150,7 +160,7 @@ impl Stepper<'_, '_> {
     }
 
     /// Freezes a vertex on the border it meets at `x + t dx`, or on the crest of a thin bright
-    /// layer there (`thin_layer`).
+    /// layer there (`thin_layer`) unless another object or the region's edge is in the way.
     fn stop(&self, x: DVec3, t: f64, dx: DVec3) -> (DVec3, VertexState) {
         let crossing = x + t * dx;
         // Beyond the border, no farther than a step would take the vertex: a crest farther
@@ -158,6 +168,7 @@ impl Stepper<'_, '_> {
         let stop = self
             .border
             .thin_layer_crest(self.image, crossing, dx.normalize(), self.max_step)
+            .filter(|&crest| !self.image.is_blocked(crest))
             .unwrap_or(crossing);
         (stop, VertexState::FrozenAtBorder)
     }

@@ -4,7 +4,7 @@
 //! winding number is positive, so overlapping lobes count as inside) — whose zero isosurface
 //! (marching cubes) is the new surface, with the topology the contacts implied.
 //!
-//! Two repairs of the map before marching cubes, both on the voxel grid:
+//! Three repairs of the map before marching cubes, all on the voxel grid:
 //! - **Gaps the balloon could have filled are filled**: the inside is closed by a ball of
 //!   `CLOSING_VOXELS` voxels, and the grid points the closing adds are kept where the balloon
 //!   may go (`Keep::passable`, the border rule). Where the balloon crept between dips of a
@@ -12,6 +12,8 @@
 //!   image does not call those gaps background, so they are filled. A gap the image does mark
 //!   as background stays open: the carotid's siphon curls back against itself around a hole 2–3
 //!   voxels wide whose walls are edges, and that hole stays a handle.
+//! - **Other objects and the region of interest are kept out**: where another object's surface
+//!   or the region's edge is nearer than the balloon's, the map takes the distance to it.
 //! - **A balloon does not split** (paper, section 2): components of the inside with no seed in
 //!   them — specks cut off where the map pinched a thin neck — are dropped.
 //!
@@ -60,7 +62,14 @@ pub(crate) struct Keep<'a> {
     pub seeds: &'a [DVec3],
     /// Where the balloon may go (world mm): the gaps the closing fills must lie there.
     pub passable: &'a (dyn Fn(DVec3) -> bool + Sync),
+    /// How deep a point (world mm) is inside the space the region of interest and the other
+    /// objects leave, where either is near: the new surface stays inside that space.
+    pub free_depth: Option<&'a FreeDepth<'a>>,
 }
+
+/// How deep a point (world mm) is inside the space the region of interest and the other
+/// objects leave to a balloon, where either is near (`ImageScales::free_depth`).
+pub(crate) type FreeDepth<'a> = dyn Fn(DVec3) -> Option<f64> + Sync + 'a;
 
 /// The new surface of `mesh`, whose vertices have `states`, on the grid of `geometry`.
 pub(crate) fn reparametrize(
@@ -85,6 +94,9 @@ pub(crate) fn reparametrize(
     let (grid, dims) = covering_grid(mesh, geometry, MARGIN_VOXELS)?;
     let mut field = signed_distance_values(&surface, mesh, dims, &grid, &options)?;
     fill_passable_gaps(&mut field, dims, &grid, keep.passable);
+    if let Some(free_depth) = keep.free_depth {
+        keep_inside_free_space(&mut field, dims, &grid, free_depth);
+    }
     keep_seeded_components(&mut field, dims, &grid, keep.seeds);
     let voxel: f64 = geometry.spacing().iter().product();
     Ok(without_cavities(
@@ -143,6 +155,22 @@ fn fill_passable_gaps(
             field[n] = depth;
         }
     }
+}
+
+/// Moves the inside of `field` out of what the region of interest and the other objects take
+/// (`free_depth` negative): the field becomes the larger of the balloon's distance and the
+/// distance into that, so marching cubes puts the surface where the nearer of the two says.
+pub(in crate::balloon) fn keep_inside_free_space(
+    field: &mut [f64],
+    dims: [usize; 3],
+    grid: &Geometry,
+    free_depth: &FreeDepth<'_>,
+) {
+    field.par_iter_mut().enumerate().for_each(|(n, value)| {
+        if let Some(depth) = free_depth(grid.index_to_world(grid_point(n, dims))) {
+            *value = value.max(-depth);
+        }
+    });
 }
 
 /// Moves outside the components of the inside of `field` (6-connected grid points) that hold
@@ -334,6 +362,7 @@ mod tests {
         Keep {
             seeds,
             passable: if passable { &|_| true } else { &|_| false },
+            free_depth: None,
         }
     }
 

@@ -39,9 +39,12 @@ impl Segmenter<'_, '_> {
             let (mesh, states) = s.mesh();
             let geometry = *s.volume.geometry();
             let (image, border) = (&s.image, s.border);
+            let free_depth = |p| image.free_depth(p);
+            let constrained = image.region().is_some() || !image.obstacles().is_empty();
             let keep = Keep {
                 seeds: &s.seeds,
                 passable: &|p| border.passable(image, p),
+                free_depth: constrained.then_some(&free_depth as _),
             };
             let repaired = s
                 .pool
@@ -77,6 +80,25 @@ impl Segmenter<'_, '_> {
                 *state = VertexState::FrozenAtBorder;
             }
         }
+    }
+
+    /// Lets the vertices frozen at the border move on where they may (`may_move_on`): after
+    /// another object gave up a structure it had entered, the border it kept this balloon at
+    /// is gone. Returns how many it let go.
+    pub(in crate::balloon) fn release_frozen(&mut self) -> usize {
+        let normals = self.surface.vertex_normals();
+        let released: Vec<u32> = self
+            .surface
+            .live_vertices()
+            .filter(|&v| {
+                self.surface.states()[v as usize] == VertexState::FrozenAtBorder
+                    && self.may_move_on(self.surface.positions()[v as usize], normals[v as usize])
+            })
+            .collect();
+        for &v in &released {
+            self.surface.states_mut()[v as usize] = VertexState::Moving;
+        }
+        released.len()
     }
 
     /// Whether a vertex of a new surface at `p` with outward normal `n` may move on: where the

@@ -1,0 +1,381 @@
+//! Several objects at once, the paper's proposal for structures that connect without a wall
+//! between them (its conclusion): "start balloons from different seeds, look for intersections
+//! with the other meshes, stop the nodes that meet". Every object is a balloon of its own, with
+//! its own intensity model from its first seed, its own contacts with itself and its own
+//! re-parametrisations; to each, the others are obstacles (`obstacle`): a vertex stops
+//! [`CLEARANCE_VOXELS`] short of another object's surface as it stops at the border, and its
+//! re-parametrisation keeps its new surface out of them. Contacts between two objects never
+//! merge them.
+//!
+//! All objects inflate together, one step each in turn, in the order they were given, until
+//! each is at equilibrium; then each in that order goes through contacts, re-parametrisation,
+//! refinement, fairing and validation against the others as they stand (the final surfaces of
+//! those before it). Competitors (stop seeds) take part in all of it and are left out of the
+//! result: they keep an object from growing into the structure they fill.
+//!
+//! One object without competitors is exactly [`Segmenter::segment`].
+
+pub(in crate::balloon) mod obstacle;
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::rc::Rc;
+use std::sync::Arc;
+
+use glam::DVec3;
+
+use crate::balloon::image_model::region::Region;
+use crate::balloon::inflation::Inflation;
+use crate::balloon::params::BalloonParams;
+use crate::balloon::progress::{Phase, ProgressCallback};
+use crate::balloon::reparametrization::AfterReparametrization;
+use crate::balloon::segmenter::{SegmentationStats, Segmenter};
+use crate::balloon::surface::VertexState;
+use crate::error::{Error, Result};
+use crate::mesh::TriMesh;
+use crate::volume::Volume;
+use obstacle::{crossings, Obstacle};
+
+/// The distance, in voxels of the smallest spacing, that a balloon keeps from another object:
+/// where two objects meet, the gap between them is about this wide, and their surfaces never
+/// touch.
+pub const CLEARANCE_VOXELS: f64 = 0.25;
+
+/// Labels go into a signed 32-bit `object` array.
+pub const MAX_LABEL: u32 = i32::MAX as u32;
+
+/// Objects and competitors at most: each is a balloon of its own, searched by all the others.
+pub const MAX_OBJECTS: usize = 256;
+
+/// Rounds of inflating together after some object cut off a structure it had entered, which
+/// the others may now fill.
+const MAX_ROUNDS: usize = 3;
+
+/// Seeds of one object (world mm), named by a positive label.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjectSeeds {
+    pub label: u32,
+    pub seeds: Vec<DVec3>,
+}
+
+/// An object's segmentation.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SegmentedObject {
+    pub label: u32,
+    pub seeds: Vec<DVec3>,
+    /// World mm; closed, 2-manifold, outward, free of self-intersections and of crossings with
+    /// the other objects.
+    pub mesh: TriMesh,
+    pub states: Vec<VertexState>,
+    pub stats: SegmentationStats,
+}
+
+/// What to segment: the objects, the competitors that only block them (`stops`, world mm,
+/// each a balloon of its own) and the region of interest.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ObjectsRequest {
+    pub objects: Vec<ObjectSeeds>,
+    pub stops: Vec<DVec3>,
+    pub region: Option<Region>,
+}
+
+/// Segments every object of `request` in `volume`, in the order given.
+pub fn segment_objects<'v, 'p>(
+    volume: Volume<'v>,
+    params: BalloonParams,
+    request: &ObjectsRequest,
+    progress: Option<ProgressCallback<'p>>,
+) -> Result<Vec<SegmentedObject>> {
+    params.validate()?;
+    check_request(volume, request)?;
+    let mut members = Vec::with_capacity(request.objects.len() + request.stops.len());
+    let starts = request
+        .objects
+        .iter()
+        .map(|o| (Some(o.label), o.seeds.as_slice()))
+        .chain(
+            request
+                .stops
+                .iter()
+                .map(|s| (None, std::slice::from_ref(s))),
+        );
+    for (label, seeds) in starts {
+        let name = describe(label);
+        let start = || -> Result<Segmenter<'v, 'p>> {
+            let mut segmenter = Segmenter::new(volume, params.clone(), seeds[0])?;
+            for &seed in &seeds[1..] {
+                segmenter.add_seed(seed)?;
+            }
+            if let Some(region) = request.region {
+                segmenter.restrict_to(region)?;
+            }
+            Ok(segmenter)
+        };
+        members.push(Member {
+            label,
+            segmenter: start().map_err(|e| e.context(&name))?,
+        });
+    }
+    share_progress(&mut members, progress);
+    let results = if members.len() == 1 {
+        let (mesh, states) = members[0].segmenter.segment()?;
+        vec![(mesh, states)]
+    } else {
+        compete(&mut members)?
+    };
+    Ok(members
+        .into_iter()
+        .zip(results)
+        .filter_map(|(member, (mesh, states))| {
+            Some(SegmentedObject {
+                label: member.label?,
+                seeds: member.segmenter.seeds().to_vec(),
+                mesh,
+                states,
+                stats: member.segmenter.stats().clone(),
+            })
+        })
+        .collect())
+}
+
+struct Member<'v, 'p> {
+    /// `None` for a competitor.
+    label: Option<u32>,
+    segmenter: Segmenter<'v, 'p>,
+}
+
+fn describe(label: Option<u32>) -> String {
+    match label {
+        Some(label) => format!("object {label}"),
+        None => "a stop seed".to_string(),
+    }
+}
+
+/// The members inflate together, then finish one after the other (module docs); the final mesh
+/// and vertex states of each, in order.
+fn compete(members: &mut [Member<'_, '_>]) -> Result<Vec<(TriMesh, Vec<VertexState>)>> {
+    let geometry = *members[0].segmenter.volume_geometry();
+    let clearance = CLEARANCE_VOXELS * geometry.min_spacing();
+    // A vertex moves less than a voxel per step, so a reach of two voxels sees every obstacle
+    // it could step into, with room for the clearance.
+    let reach = 2.0 * geometry.max_spacing();
+    let mut indexes: Vec<Arc<Obstacle>> = members
+        .iter()
+        .map(|m| Arc::new(m.segmenter.as_obstacle(reach)))
+        .collect();
+    let mut runs: Vec<_> = members
+        .iter()
+        .map(|m| {
+            let limit = m.segmenter.params().max_iterations;
+            Some(m.segmenter.start_inflation(Phase::Inflation, limit))
+        })
+        .collect();
+    let mut used = vec![0; members.len()];
+    for round in 0..=MAX_ROUNDS {
+        inflate_together(
+            members,
+            &mut runs,
+            &mut used,
+            &mut indexes,
+            reach,
+            clearance,
+        )?;
+        if round == MAX_ROUNDS {
+            break;
+        }
+        let mut cut = false;
+        for i in 0..members.len() {
+            let Member { label, segmenter } = &mut members[i];
+            segmenter.set_obstacles(others(&indexes, i), clearance);
+            if segmenter
+                .cut_touching(AfterReparametrization::Refinement)
+                .map_err(|e| e.context(describe(*label)))?
+            {
+                indexes[i] = Arc::new(segmenter.as_obstacle(reach));
+                cut = true;
+            }
+        }
+        if !cut {
+            break;
+        }
+        for (i, member) in members.iter_mut().enumerate() {
+            let segmenter = &mut member.segmenter;
+            segmenter.set_obstacles(others(&indexes, i), clearance);
+            segmenter.release_frozen();
+            let left = segmenter.params().max_iterations.saturating_sub(used[i]);
+            runs[i] = Some(segmenter.start_inflation(Phase::Refinement, left));
+        }
+    }
+    let mut results = Vec::with_capacity(members.len());
+    for i in 0..members.len() {
+        let segmenter = &mut members[i].segmenter;
+        segmenter.set_obstacles(others(&indexes, i), clearance);
+        segmenter.keep_apart_from(indexes[..i].to_vec());
+        let left = segmenter.params().max_iterations - used[i];
+        let (mesh, states) = segmenter
+            .finish(left)
+            .map_err(|e| e.context(describe(members[i].label)))?;
+        indexes[i] = Arc::new(Obstacle::new(
+            mesh.triangles()
+                .iter()
+                .map(|t| t.map(|v| mesh.points()[v as usize])),
+            reach,
+        ));
+        results.push((mesh, states));
+    }
+    check_apart(members, &results, &indexes)?;
+    Ok(results)
+}
+
+/// All members with an inflation under way take a step each in turn, each against the others
+/// as they stand, until every inflation is over; `used` counts each member's steps.
+fn inflate_together(
+    members: &mut [Member<'_, '_>],
+    runs: &mut [Option<Inflation>],
+    used: &mut [u32],
+    indexes: &mut [Arc<Obstacle>],
+    reach: f64,
+    clearance: f64,
+) -> Result<()> {
+    while runs.iter().any(Option::is_some) {
+        for i in 0..members.len() {
+            let Some(run) = runs[i].as_mut() else {
+                continue;
+            };
+            let Member { label, segmenter } = &mut members[i];
+            segmenter.set_obstacles(others(indexes, i), clearance);
+            let done = segmenter
+                .continue_inflation(run)
+                .map_err(|e| e.context(describe(*label)))?;
+            indexes[i] = Arc::new(segmenter.as_obstacle(reach));
+            if done {
+                used[i] += run.steps;
+                runs[i] = None;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The surfaces of all members but the `i`th.
+fn others(indexes: &[Arc<Obstacle>], i: usize) -> Vec<Arc<Obstacle>> {
+    (0..indexes.len())
+        .filter(|&j| j != i)
+        .map(|j| indexes[j].clone())
+        .collect()
+}
+
+/// No object's final surface meets another's: each was validated against those finished
+/// before it, and this checks every pair once more before anything is returned.
+fn check_apart(
+    members: &[Member<'_, '_>],
+    results: &[(TriMesh, Vec<VertexState>)],
+    indexes: &[Arc<Obstacle>],
+) -> Result<()> {
+    for i in 0..members.len() {
+        for j in i + 1..members.len() {
+            let crossing = crossings(&results[i].0, std::slice::from_ref(&indexes[j]))?;
+            if !crossing.is_empty() {
+                return Err(Error::internal(format!(
+                    "{} and {} cross ({} triangles of the first meet the second) after \
+                     validation; please report this with the image and the seeds",
+                    describe(members[i].label),
+                    describe(members[j].label),
+                    crossing.len()
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// One progress callback for all members: the mean of their fractions.
+fn share_progress<'p>(members: &mut [Member<'_, 'p>], progress: Option<ProgressCallback<'p>>) {
+    let Some(callback) = progress else {
+        return;
+    };
+    let n = members.len();
+    let shared = Rc::new(RefCell::new((callback, vec![0.0; n])));
+    for (i, member) in members.iter_mut().enumerate() {
+        let shared = Rc::clone(&shared);
+        member
+            .segmenter
+            .set_progress(Some(Box::new(move |fraction, phase| {
+                let (callback, fractions) = &mut *shared.borrow_mut();
+                fractions[i] = fraction;
+                let mean = fractions.iter().sum::<f64>() / n as f64;
+                callback(mean, phase)
+            })));
+    }
+}
+
+/// Labels positive and distinct, every object seeded, not too many objects, and no voxel
+/// seeded by two of them.
+fn check_request(volume: Volume<'_>, request: &ObjectsRequest) -> Result<()> {
+    if request.objects.is_empty() {
+        return Err(Error::invalid_argument(
+            "no object to segment: give at least one seed",
+        ));
+    }
+    let count = request.objects.len() + request.stops.len();
+    if count > MAX_OBJECTS {
+        return Err(Error::invalid_argument(format!(
+            "{count} objects and stop seeds; at most {MAX_OBJECTS} can grow at once: give \
+             fewer labels or stop seeds"
+        )));
+    }
+    let geometry = volume.geometry();
+    let voxel = |p: DVec3| {
+        let i = geometry.world_to_index(p).round();
+        [i.x as i64, i.y as i64, i.z as i64]
+    };
+    for object in &request.objects {
+        let label = object.label;
+        if label == 0 || label > MAX_LABEL {
+            return Err(Error::invalid_argument(format!(
+                "object label {label} (seeds {:?} mm); labels are 1 to {MAX_LABEL}",
+                object.seeds
+            )));
+        }
+        if object.seeds.is_empty() {
+            return Err(Error::invalid_argument(format!(
+                "object {label} has no seed; give it at least one"
+            )));
+        }
+        if request.objects.iter().filter(|o| o.label == label).count() > 1 {
+            return Err(Error::invalid_argument(format!(
+                "object label {label} is given twice; put all its seeds in one object"
+            )));
+        }
+    }
+    let seeds = request
+        .objects
+        .iter()
+        .flat_map(|o| o.seeds.iter().map(|&s| (Some(o.label), s)));
+    let stops = request.stops.iter().map(|&s| (None, s));
+    let mut seeded: HashMap<[i64; 3], (Option<u32>, DVec3)> = HashMap::new();
+    for (owner, seed) in seeds.chain(stops) {
+        if !seed.is_finite() {
+            return Err(Error::invalid_argument(format!(
+                "the seed {seed} of {} is not finite; give world millimetres",
+                describe(owner)
+            )));
+        }
+        match seeded.insert(voxel(seed), (owner, seed)) {
+            Some((other, at)) if other != owner || owner.is_none() => {
+                return Err(Error::invalid_argument(format!(
+                    "the seed {seed} mm of {} is in the voxel {:?} of the seed {at} mm of {}; \
+                     give each object and each stop seed voxels of its own",
+                    describe(owner),
+                    voxel(seed),
+                    describe(other)
+                )));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;

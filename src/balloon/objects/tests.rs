@@ -1,0 +1,197 @@
+use super::*;
+use crate::mesh_checks;
+use crate::phantom::{self, Family, PhantomOptions, Shape, Variant};
+
+/// The deepest point of the other object of a variant (world mm), on a half-millimetre lattice.
+fn other_seed(variant: &Variant) -> DVec3 {
+    let other = variant.other().expect("a pair");
+    let (lo, hi) = variant.other_bounds().expect("a pair");
+    let steps = ((hi - lo) / 0.5).ceil();
+    let mut best = (f64::INFINITY, lo);
+    for k in 0..=steps.z as usize {
+        for j in 0..=steps.y as usize {
+            for i in 0..=steps.x as usize {
+                let p = lo + 0.5 * DVec3::new(i as f64, j as f64, k as f64);
+                let d = other(p);
+                if d < best.0 {
+                    best = (d, p);
+                }
+            }
+        }
+    }
+    best.1
+}
+
+fn one(label: u32, seed: DVec3) -> ObjectSeeds {
+    ObjectSeeds {
+        label,
+        seeds: vec![seed],
+    }
+}
+
+fn obstacle_of(mesh: &TriMesh, reach: f64) -> Arc<Obstacle> {
+    Arc::new(Obstacle::new(
+        mesh.triangles()
+            .iter()
+            .map(|t| t.map(|v| mesh.points()[v as usize])),
+        reach,
+    ))
+}
+
+#[test]
+fn two_touching_tubes_come_out_valid_apart_and_each_around_its_seed() {
+    for number in [1, 6, 7] {
+        let variant = Family::TouchingPair.variant(number).unwrap();
+        let seeds = [variant.seed(), other_seed(&variant)];
+        let request = ObjectsRequest {
+            objects: vec![one(1, seeds[0]), one(2, seeds[1])],
+            ..ObjectsRequest::default()
+        };
+        let objects = segment_objects(
+            variant.image.view(),
+            BalloonParams::default(),
+            &request,
+            None,
+        )
+        .unwrap();
+        assert_eq!(objects.iter().map(|o| o.label).collect::<Vec<_>>(), [1, 2]);
+        let reach = 3.0 * variant.image.geometry().max_spacing();
+        for (object, other) in [(&objects[0], &objects[1]), (&objects[1], &objects[0])] {
+            let report = mesh_checks::check(&object.mesh);
+            assert!(report.is_valid_closed_surface(), "{number}: {report:?}");
+            assert!(crate::self_intersection::self_intersections(&object.mesh).is_empty());
+            let others = [obstacle_of(&other.mesh, reach)];
+            assert_eq!(crossings(&object.mesh, &others).unwrap(), [] as [u32; 0]);
+            // Each holds its own seed and not the other's.
+            let own = obstacle_of(&object.mesh, 1e3);
+            let depth = |p: DVec3| own.signed_distance(p).unwrap();
+            assert!(depth(object.seeds[0]) < 0.0, "{number}");
+            assert!(depth(other.seeds[0]) > 0.0, "{number}");
+        }
+    }
+}
+
+#[test]
+fn one_object_is_the_segmenter_alone() {
+    let p = phantom::render(Shape::TouchingTubes, &PhantomOptions::default()).unwrap();
+    let request = ObjectsRequest {
+        objects: vec![one(7, p.seed_world())],
+        ..ObjectsRequest::default()
+    };
+    let objects =
+        segment_objects(p.image.view(), BalloonParams::default(), &request, None).unwrap();
+    let alone = Segmenter::new(p.image.view(), BalloonParams::default(), p.seed_world())
+        .unwrap()
+        .segment()
+        .unwrap();
+    assert_eq!(objects.len(), 1);
+    assert_eq!(objects[0].label, 7);
+    assert_eq!((objects[0].mesh.clone(), objects[0].states.clone()), alone);
+}
+
+#[test]
+fn a_stop_seed_keeps_the_object_out_and_is_not_returned() {
+    let variant = Family::TouchingPair.variant(6).unwrap();
+    let request = ObjectsRequest {
+        objects: vec![one(3, variant.seed())],
+        stops: vec![other_seed(&variant)],
+        region: None,
+    };
+    let objects = segment_objects(
+        variant.image.view(),
+        BalloonParams::default(),
+        &request,
+        None,
+    )
+    .unwrap();
+    assert_eq!(objects.len(), 1);
+    assert_eq!(objects[0].label, 3);
+    let own = obstacle_of(&objects[0].mesh, 1e3);
+    assert!(own.signed_distance(request.stops[0]).unwrap() > 0.0);
+}
+
+#[test]
+fn the_region_of_interest_bounds_the_balloon() {
+    let p = phantom::render(Shape::Sphere, &PhantomOptions::default()).unwrap();
+    let seed = p.seed_world();
+    // The sphere's radius is 10 mm: the box cuts it 4 mm above the seed.
+    let region = Region::new(
+        seed - DVec3::splat(20.0),
+        seed + DVec3::new(20.0, 20.0, 4.0),
+    )
+    .unwrap();
+    let request = ObjectsRequest {
+        objects: vec![one(1, seed)],
+        stops: Vec::new(),
+        region: Some(region),
+    };
+    let objects =
+        segment_objects(p.image.view(), BalloonParams::default(), &request, None).unwrap();
+    let mesh = &objects[0].mesh;
+    assert!(mesh_checks::check(mesh).is_valid_closed_surface());
+    let (lo, hi) = mesh.bounds().unwrap();
+    let voxel = p.image.geometry().max_spacing();
+    assert!(hi.z <= seed.z + 4.0 + 0.5 * voxel, "{hi}");
+    assert!(
+        hi.z >= seed.z + 4.0 - voxel,
+        "{hi}: short of the region's face"
+    );
+    assert!(lo.z < seed.z - 9.0, "{lo}");
+}
+
+#[test]
+fn bad_requests_name_the_seed_and_what_to_change() {
+    let p = phantom::render(Shape::TouchingTubes, &PhantomOptions::default()).unwrap();
+    let seed = p.seed_world();
+    let voxel = p.image.geometry().min_spacing();
+    let run = |request: ObjectsRequest| {
+        segment_objects(p.image.view(), BalloonParams::default(), &request, None)
+            .unwrap_err()
+            .to_string()
+    };
+    let label_zero = run(ObjectsRequest {
+        objects: vec![one(0, seed)],
+        ..ObjectsRequest::default()
+    });
+    assert!(
+        label_zero.contains("label 0") && label_zero.contains("1 to"),
+        "{label_zero}"
+    );
+    let too_large = run(ObjectsRequest {
+        objects: vec![one(MAX_LABEL + 1, seed)],
+        ..ObjectsRequest::default()
+    });
+    assert!(too_large.contains("labels are 1 to"), "{too_large}");
+    let shared = run(ObjectsRequest {
+        objects: vec![one(1, seed), one(2, seed + DVec3::splat(0.1 * voxel))],
+        ..ObjectsRequest::default()
+    });
+    assert!(
+        shared.contains("object 2") && shared.contains("object 1") && shared.contains("voxel"),
+        "{shared}"
+    );
+    let stopped = run(ObjectsRequest {
+        objects: vec![one(1, seed)],
+        stops: vec![seed],
+        region: None,
+    });
+    assert!(
+        stopped.contains("stop seed") && stopped.contains("object 1"),
+        "{stopped}"
+    );
+    let many = run(ObjectsRequest {
+        objects: (1..=MAX_OBJECTS as u32 + 1)
+            .map(|l| one(l, seed + DVec3::X * l as f64 * 100.0 * voxel))
+            .collect(),
+        ..ObjectsRequest::default()
+    });
+    assert!(many.contains("at most"), "{many}");
+    let none = run(ObjectsRequest::default());
+    assert!(none.contains("at least one seed"), "{none}");
+    let outside = run(ObjectsRequest {
+        objects: vec![one(1, seed)],
+        stops: Vec::new(),
+        region: Some(Region::new(seed + DVec3::ONE, seed + DVec3::splat(5.0)).unwrap()),
+    });
+    assert!(outside.contains("outside the region"), "{outside}");
+}
