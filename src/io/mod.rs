@@ -32,7 +32,7 @@ pub mod vtk_xml;
 use std::path::Path;
 
 use crate::{Error, Image, Result, TriMesh};
-pub use point_data::{PointData, PointValues};
+pub use point_data::{CellData, PointData, PointValues};
 
 /// The volume extensions [`read_image`] understands.
 pub const IMAGE_READ_FORMATS: &str = ".mha, .mhd, .nrrd, .nhdr, .nii, .nii.gz, .vti, .vtk";
@@ -100,13 +100,78 @@ pub fn read_mesh(path: &Path) -> Result<TriMesh> {
 /// Writes a mesh with optional per-point arrays (kept by .vtp, .vtk and .ply; the other formats
 /// have no place for them).
 pub fn write_mesh(path: &Path, mesh: &TriMesh, point_data: &[PointData]) -> Result<()> {
-    match extension(path).as_str() {
-        "vtp" => vtk_xml::write_vtp(path, mesh, point_data),
-        "vtk" => vtk_legacy::write_mesh(path, mesh, point_data),
-        "ply" => ply::write(path, mesh, point_data),
+    write_mesh_with_cells(path, mesh, point_data, &[])
+}
+
+/// [`write_mesh`] with per-triangle integer arrays too, such as `object`, the label of each
+/// triangle when several segmented objects share one file. Only .vtp, .vtk and .ply can hold
+/// them; for .stl, .obj and .off, cell data is an error and nothing is written, since dropping
+/// the labels would leave one unlabelled surface.
+pub fn write_mesh_with_cells(
+    path: &Path,
+    mesh: &TriMesh,
+    point_data: &[PointData],
+    cell_data: &[CellData],
+) -> Result<()> {
+    let extension = extension(path);
+    if let (Some(data), "stl" | "obj" | "off") = (cell_data.first(), extension.as_str()) {
+        return Err(Error::invalid_argument(format!(
+            "{}: {} cannot hold the triangle array {:?}; write .vtp, .vtk or .ply, or one file \
+             per object",
+            path.display(),
+            extension.to_uppercase(),
+            data.name
+        )));
+    }
+    match extension.as_str() {
+        "vtp" => {
+            let compression = vtk_xml::Compression::default();
+            vtk_xml::write_vtp_with_cells(path, mesh, point_data, cell_data, compression)
+        }
+        "vtk" => vtk_legacy::write_mesh_with_cells(path, mesh, point_data, cell_data),
+        "ply" => ply::write_with_cells(path, mesh, point_data, cell_data),
         "stl" => stl::write(path, mesh, point_data),
         "obj" => obj::write(path, mesh, point_data),
         "off" => off::write(path, mesh),
         _ => Err(unsupported(path, "mesh", MESH_FORMATS)),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::test_shapes::cube;
+    use crate::ErrorKind;
+    use glam::DVec3;
+
+    #[test]
+    fn cell_data_is_refused_before_anything_is_written_where_it_cannot_be_kept() {
+        let dir = test_images::scratch_dir();
+        let mesh = cube(DVec3::ZERO, DVec3::ONE);
+        let labels = [1; 12];
+        let object = |values| {
+            [CellData {
+                name: "object",
+                values,
+            }]
+        };
+        for extension in ["vtp", "vtk", "ply", "stl", "obj", "off"] {
+            let path = dir.path().join(format!("mesh.{extension}"));
+            let e = write_mesh_with_cells(&path, &mesh, &[], &object(&labels[..11])).unwrap_err();
+            assert_eq!(e.kind(), ErrorKind::InvalidArgument, "{e}");
+            assert!(!path.exists(), "{extension}");
+            let written = write_mesh_with_cells(&path, &mesh, &[], &object(&labels));
+            if matches!(extension, "vtp" | "vtk" | "ply") {
+                written.unwrap();
+                assert_eq!(read_mesh(&path).unwrap(), mesh);
+            } else {
+                let e = written.unwrap_err();
+                assert_eq!(e.kind(), ErrorKind::InvalidArgument, "{e}");
+                let format = extension.to_uppercase();
+                let needle = format!("{format} cannot hold the triangle array \"object\"");
+                assert!(e.message().contains(&needle), "{e}");
+                assert!(!path.exists(), "{extension}");
+            }
+        }
     }
 }

@@ -3,7 +3,8 @@
 //! Reading takes the `vertex` element's x, y, z (any numeric type) and the `face` element's
 //! `vertex_indices` (or `vertex_index`) list, with any count and index types; every other
 //! element and property, lists included, is skipped. Writing stores binary little endian with
-//! double coordinates, point data as extra vertex properties and `uchar`/`uint` face lists.
+//! double coordinates, point data as extra vertex properties, `uchar`/`uint` face lists and
+//! cell data as `int` face properties after the list.
 //!
 //! Ours rather than `ply-rs-bw` (4.0), measured in BENCHMARKS.md ("io: our readers against the
 //! crates"): it covers the same encodings and list types but stores every element as a hash map
@@ -17,7 +18,7 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::files;
-use super::point_data::{self, PointData, PointValues};
+use super::point_data::{self, CellData, PointData, PointValues};
 use super::polygons;
 use super::scan::{self, Cursor, Encoding, NumType};
 use crate::error::{Error, Result};
@@ -30,8 +31,20 @@ pub fn read(path: &Path) -> Result<TriMesh> {
 
 /// Writes binary little-endian PLY; each point data array becomes a vertex property.
 pub fn write(path: &Path, mesh: &TriMesh, point_data: &[PointData]) -> Result<()> {
+    write_with_cells(path, mesh, point_data, &[])
+}
+
+/// [`write`] with each cell data array as an `int` face property.
+pub fn write_with_cells(
+    path: &Path,
+    mesh: &TriMesh,
+    point_data: &[PointData],
+    cell_data: &[CellData],
+) -> Result<()> {
     point_data::check(mesh, point_data, &["x", "y", "z"])?;
-    files::write(path, |w| write_to(w, mesh, point_data))
+    // Readers, ours included, look for the face list under either name.
+    point_data::check_cells(mesh, cell_data, &["vertex_indices", "vertex_index"])?;
+    files::write(path, |w| write_to(w, mesh, point_data, cell_data))
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -286,7 +299,12 @@ pub(crate) fn parse(bytes: &[u8]) -> Result<TriMesh> {
     polygons::mesh(points, triangles)
 }
 
-fn write_to(w: &mut impl Write, mesh: &TriMesh, point_data: &[PointData]) -> std::io::Result<()> {
+fn write_to(
+    w: &mut impl Write,
+    mesh: &TriMesh,
+    point_data: &[PointData],
+    cell_data: &[CellData],
+) -> std::io::Result<()> {
     let mut header = format!(
         "ply\nformat binary_little_endian 1.0\ncomment written by balloonseg\n\
          element vertex {}\nproperty double x\nproperty double y\nproperty double z\n",
@@ -300,9 +318,13 @@ fn write_to(w: &mut impl Write, mesh: &TriMesh, point_data: &[PointData]) -> std
         header += &format!("property {ty} {}\n", data.name);
     }
     header += &format!(
-        "element face {}\nproperty list uchar uint vertex_indices\nend_header\n",
+        "element face {}\nproperty list uchar uint vertex_indices\n",
         mesh.triangles().len()
     );
+    for data in cell_data {
+        header += &format!("property int {}\n", data.name);
+    }
+    header += "end_header\n";
     w.write_all(header.as_bytes())?;
     for (i, p) in mesh.points().iter().enumerate() {
         for x in p.to_array() {
@@ -315,12 +337,15 @@ fn write_to(w: &mut impl Write, mesh: &TriMesh, point_data: &[PointData]) -> std
             }
         }
     }
-    for t in mesh.triangles() {
+    for (t, triangle) in mesh.triangles().iter().enumerate() {
         let mut face = [3u8; 13];
-        for (k, v) in t.iter().enumerate() {
+        for (k, v) in triangle.iter().enumerate() {
             face[1 + 4 * k..5 + 4 * k].copy_from_slice(&v.to_le_bytes());
         }
         w.write_all(&face)?;
+        for data in cell_data {
+            w.write_all(&data.values[t].to_le_bytes())?;
+        }
     }
     Ok(())
 }
@@ -333,7 +358,7 @@ mod tests {
 
     fn to_bytes(mesh: &TriMesh, point_data: &[PointData]) -> Vec<u8> {
         let mut bytes = Vec::new();
-        write_to(&mut bytes, mesh, point_data).unwrap();
+        write_to(&mut bytes, mesh, point_data, &[]).unwrap();
         bytes
     }
 
@@ -363,6 +388,64 @@ mod tests {
         ];
         let bytes = to_bytes(&mesh, &data);
         assert_eq!(parse(&bytes).unwrap(), mesh);
+    }
+
+    #[test]
+    fn cell_data_are_int_face_properties_after_the_list() {
+        let mesh = icosphere(DVec3::new(0.5, 0.25, -1.0), 3.0, 1);
+        let m = mesh.triangles().len();
+        let object: Vec<i32> = (0..m as i32).map(|t| t / 10).collect();
+        let extremes: Vec<i32> = (0..m).map(|t| [i32::MIN, -1, i32::MAX][t % 3]).collect();
+        let state = vec![1u8; mesh.points().len()];
+        let point_data = [PointData {
+            name: "object",
+            values: PointValues::U8(&state),
+        }];
+        let cell_data = [
+            CellData {
+                name: "object",
+                values: &object,
+            },
+            CellData {
+                name: "extremes",
+                values: &extremes,
+            },
+        ];
+        let mut bytes = Vec::new();
+        write_to(&mut bytes, &mesh, &point_data, &cell_data).unwrap();
+        assert_eq!(parse(&bytes).unwrap(), mesh);
+        let mut cursor = Cursor::new(&bytes);
+        let (encoding, elements) = header(&mut cursor).unwrap();
+        let [vertex, face] = &elements[..] else {
+            panic!("{elements:?}")
+        };
+        let properties: Vec<(&[u8], Kind)> =
+            face.properties.iter().map(|p| (p.name, p.kind)).collect();
+        let list = Kind::List {
+            count: NumType::U8,
+            item: NumType::U32,
+        };
+        let int = Kind::Scalar(NumType::I32);
+        assert_eq!(
+            properties,
+            [
+                (&b"vertex_indices"[..], list),
+                (b"object", int),
+                (b"extremes", int)
+            ]
+        );
+        let mut corners = Vec::new();
+        for _ in 0..vertex.count {
+            instance(&mut cursor, vertex, encoding, None, |_, _| {}, &mut corners).unwrap();
+        }
+        let mut values = [Vec::new(), Vec::new()];
+        for triangle in mesh.triangles() {
+            let keep = |p: usize, v: f64| values[p - 1].push(v as i32);
+            instance(&mut cursor, face, encoding, Some(0), keep, &mut corners).unwrap();
+            assert_eq!(corners, triangle);
+        }
+        assert_eq!(cursor.remaining(), 0);
+        assert_eq!(values, [object, extremes]);
     }
 
     #[test]

@@ -1,5 +1,6 @@
-//! Per-point values written next to a mesh (vertex state, distances, ...): the one type every
-//! mesh writer takes, and the checks they share.
+//! Values written next to a mesh: per-point arrays (vertex state, distances, ...) and
+//! per-triangle integer arrays (the `object` label of each triangle when several segmented
+//! objects share one file). The types every mesh writer takes, and the checks they share.
 
 use std::collections::HashSet;
 
@@ -33,37 +34,75 @@ impl PointValues<'_> {
     }
 }
 
+/// A named integer array with one value per mesh triangle (VTK's cell data), e.g. `object`,
+/// the label of the object each triangle bounds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CellData<'a> {
+    pub name: &'a str,
+    pub values: &'a [i32],
+}
+
 /// Checks that every array has one value per point and a name that every format can store:
 /// non-empty, no whitespace or control characters (PLY headers and legacy VTK separate words
 /// by spaces), unique, and not in `reserved` (names the format already uses).
 pub(crate) fn check(mesh: &TriMesh, point_data: &[PointData], reserved: &[&str]) -> Result<()> {
     let mut seen = HashSet::new();
     for data in point_data {
-        let name = data.name;
-        if name.is_empty() || name.chars().any(|c| c.is_whitespace() || c.is_control()) {
-            return Err(Error::invalid_argument(format!(
-                "point data name {name:?} must be non-empty and without spaces or control \
-                 characters; use e.g. underscores instead of spaces"
-            )));
-        }
-        if reserved.contains(&name) {
-            return Err(Error::invalid_argument(format!(
-                "point data name {name:?} is reserved by this file format; rename the array"
-            )));
-        }
-        if !seen.insert(name) {
-            return Err(Error::invalid_argument(format!(
-                "point data name {name:?} is given twice; every array needs its own name"
-            )));
-        }
+        check_name("point data", data.name, reserved, &mut seen)?;
         if data.values.len() != mesh.points().len() {
             return Err(Error::invalid_argument(format!(
-                "point data {name:?} has {} values but the mesh has {} points; give exactly one \
+                "point data {:?} has {} values but the mesh has {} points; give exactly one \
                  value per point",
+                data.name,
                 data.values.len(),
                 mesh.points().len()
             )));
         }
+    }
+    Ok(())
+}
+
+/// [`check`] for per-triangle arrays: one value per triangle, names as for point data. Point
+/// and cell arrays may share a name; every format keeps them apart.
+pub(crate) fn check_cells(mesh: &TriMesh, cell_data: &[CellData], reserved: &[&str]) -> Result<()> {
+    let mut seen = HashSet::new();
+    for data in cell_data {
+        check_name("cell data", data.name, reserved, &mut seen)?;
+        if data.values.len() != mesh.triangles().len() {
+            return Err(Error::invalid_argument(format!(
+                "cell data {:?} has {} values but the mesh has {} triangles; give exactly one \
+                 value per triangle",
+                data.name,
+                data.values.len(),
+                mesh.triangles().len()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Checks one array name and records it in `seen`; `what` is "point data" or "cell data".
+fn check_name<'a>(
+    what: &str,
+    name: &'a str,
+    reserved: &[&str],
+    seen: &mut HashSet<&'a str>,
+) -> Result<()> {
+    if name.is_empty() || name.chars().any(|c| c.is_whitespace() || c.is_control()) {
+        return Err(Error::invalid_argument(format!(
+            "{what} name {name:?} must be non-empty and without spaces or control characters; \
+             use e.g. underscores instead of spaces"
+        )));
+    }
+    if reserved.contains(&name) {
+        return Err(Error::invalid_argument(format!(
+            "{what} name {name:?} is reserved by this file format; rename the array"
+        )));
+    }
+    if !seen.insert(name) {
+        return Err(Error::invalid_argument(format!(
+            "{what} name {name:?} is given twice; every array needs its own name"
+        )));
     }
     Ok(())
 }
@@ -96,6 +135,45 @@ mod tests {
         ] {
             let e = check(&mesh, &bad, reserved).unwrap_err();
             assert_eq!(e.kind(), crate::ErrorKind::InvalidArgument, "{e}");
+        }
+    }
+
+    #[test]
+    fn cell_data_needs_one_value_per_triangle_and_distinct_names() {
+        let mesh = cube(DVec3::ZERO, DVec3::ONE);
+        let labels = [1i32; 12];
+        let data = |name, values| CellData { name, values };
+        assert!(check_cells(&mesh, &[data("object", &labels)], &[]).is_ok());
+        // A point array and a cell array may share a name.
+        let state = [0u8; 8];
+        let point = [PointData {
+            name: "object",
+            values: PointValues::U8(&state),
+        }];
+        assert!(check(&mesh, &point, &[]).is_ok());
+        for (bad, reserved, needle) in [
+            (
+                vec![data("object", &labels[..11])],
+                &[][..],
+                "11 values but the mesh has 12 triangles",
+            ),
+            (vec![data("", &labels)], &[], "non-empty"),
+            (vec![data("my object", &labels)], &[], "without spaces"),
+            (
+                vec![data("vertex_indices", &labels)],
+                &["vertex_indices"],
+                "reserved",
+            ),
+            (
+                vec![data("a", &labels), data("a", &labels)],
+                &[],
+                "given twice",
+            ),
+        ] {
+            let e = check_cells(&mesh, &bad, reserved).unwrap_err();
+            assert_eq!(e.kind(), crate::ErrorKind::InvalidArgument, "{e}");
+            assert!(e.message().contains(needle), "{needle}: {e}");
+            assert!(e.message().starts_with("cell data"), "{e}");
         }
     }
 }

@@ -11,7 +11,8 @@
 //! VERTICES and LINES are read past and ignored. The writer stores version 4.2 BINARY with
 //! double points, the layout every VTK release reads, and point data as a FIELD of point
 //! arrays (VTK's reader loads only the first SCALARS unless told otherwise, but every FIELD
-//! array).
+//! array). Of the cell data, the first array is the CELL_DATA SCALARS (`int`), so that it is
+//! the active cell scalars as in the .vtp writer, and the others a FIELD of cell arrays.
 //!
 //! Ours rather than `vtkio` (0.7.0-rc2, a release candidate), measured in
 //! BENCHMARKS.md ("io: our readers against the crates"): its model keeps an image's origin and
@@ -27,7 +28,7 @@ use std::path::Path;
 use glam::DVec3;
 
 use super::files;
-use super::point_data::{self, PointData, PointValues};
+use super::point_data::{self, CellData, PointData, PointValues};
 use super::polygons;
 use super::scan::{self, Cursor, Encoding, NumType};
 use crate::error::{Error, Result};
@@ -42,9 +43,21 @@ pub fn read_mesh(path: &Path) -> Result<TriMesh> {
 
 /// Writes a legacy VTK 4.2 BINARY POLYDATA file; the point data become FIELD point arrays.
 pub fn write_mesh(path: &Path, mesh: &TriMesh, point_data: &[PointData]) -> Result<()> {
+    write_mesh_with_cells(path, mesh, point_data, &[])
+}
+
+/// [`write_mesh`] with cell data: the first array becomes the CELL_DATA SCALARS, the others
+/// FIELD cell arrays.
+pub fn write_mesh_with_cells(
+    path: &Path,
+    mesh: &TriMesh,
+    point_data: &[PointData],
+    cell_data: &[CellData],
+) -> Result<()> {
     point_data::check(mesh, point_data, &[])?;
+    point_data::check_cells(mesh, cell_data, &[])?;
     check_fits(mesh)?;
-    files::write(path, |w| write_mesh_to(w, mesh, point_data))
+    files::write(path, |w| write_mesh_to(w, mesh, point_data, cell_data))
 }
 
 /// Reads the first point scalars of a legacy VTK STRUCTURED_POINTS file as an image.
@@ -454,10 +467,19 @@ fn check_fits(mesh: &TriMesh) -> Result<()> {
     Ok(())
 }
 
+/// Big-endian ints followed by the line end that closes a binary block.
+fn write_ints(w: &mut impl Write, values: &[i32]) -> std::io::Result<()> {
+    for v in values {
+        w.write_all(&v.to_be_bytes())?;
+    }
+    writeln!(w)
+}
+
 fn write_mesh_to(
     w: &mut impl Write,
     mesh: &TriMesh,
     point_data: &[PointData],
+    cell_data: &[CellData],
 ) -> std::io::Result<()> {
     let n = mesh.points().len();
     let m = mesh.triangles().len();
@@ -479,6 +501,21 @@ fn write_mesh_to(
         }
     }
     writeln!(w)?;
+    if let Some((first, others)) = cell_data.split_first() {
+        write!(
+            w,
+            "CELL_DATA {m}\nSCALARS {} int 1\nLOOKUP_TABLE default\n",
+            first.name
+        )?;
+        write_ints(w, first.values)?;
+        if !others.is_empty() {
+            writeln!(w, "FIELD FieldData {}", others.len())?;
+        }
+        for data in others {
+            writeln!(w, "{} 1 {m} int", data.name)?;
+            write_ints(w, data.values)?;
+        }
+    }
     if !point_data.is_empty() {
         writeln!(w, "POINT_DATA {n}\nFIELD FieldData {}", point_data.len())?;
     }
@@ -509,7 +546,7 @@ mod tests {
 
     fn to_bytes(mesh: &TriMesh, point_data: &[PointData]) -> Vec<u8> {
         let mut bytes = Vec::new();
-        write_mesh_to(&mut bytes, mesh, point_data).unwrap();
+        write_mesh_to(&mut bytes, mesh, point_data, &[]).unwrap();
         bytes
     }
 
@@ -539,6 +576,60 @@ mod tests {
             },
         ];
         assert_eq!(parse_mesh(&to_bytes(&mesh, &data)).unwrap(), mesh);
+    }
+
+    #[test]
+    fn cell_data_are_cell_scalars_then_a_cell_field_before_the_point_data() {
+        let mesh = icosphere(DVec3::ZERO, 2.0, 1);
+        let m = mesh.triangles().len();
+        let object: Vec<i32> = (0..m as i32).map(|t| t % 4 - 1).collect();
+        let extremes: Vec<i32> = (0..m).map(|t| [i32::MIN, i32::MAX, 0][t % 3]).collect();
+        let state = vec![7u8; mesh.points().len()];
+        let point_data = [PointData {
+            name: "state",
+            values: PointValues::U8(&state),
+        }];
+        let cell_data = [
+            CellData {
+                name: "object",
+                values: &object,
+            },
+            CellData {
+                name: "extremes",
+                values: &extremes,
+            },
+        ];
+        let mut bytes = Vec::new();
+        write_mesh_to(&mut bytes, &mesh, &point_data, &cell_data).unwrap();
+        assert_eq!(parse_mesh(&bytes).unwrap(), mesh);
+        // The attributes follow the geometry, which is all a file without them holds.
+        let geometry = to_bytes(&mesh, &[]);
+        assert_eq!(bytes[..geometry.len()], geometry[..]);
+        let mut c = Cursor::new(&bytes[geometry.len()..]);
+        let binary = Encoding::Binary { big_endian: true };
+        fn words(c: &mut Cursor, n: usize) -> Vec<String> {
+            let words = (0..n).map(|_| c.expect_word().unwrap());
+            words.map(|w| String::from_utf8_lossy(w).into()).collect()
+        }
+        let cells = format!("{m}");
+        let scalars = ["CELL_DATA", &cells, "SCALARS", "object", "int", "1"];
+        let table = ["LOOKUP_TABLE", "default"];
+        assert_eq!(words(&mut c, 8), [&scalars[..], &table].concat());
+        end_line(&mut c, binary);
+        let values = scan::numbers(&mut c, m, num_type(b"int").unwrap(), binary, "object");
+        assert_eq!(
+            values.unwrap(),
+            object.iter().map(|&v| v as f64).collect::<Vec<_>>()
+        );
+        let field = ["FIELD", "FieldData", "1", "extremes", "1", &cells, "int"];
+        assert_eq!(words(&mut c, 7), field);
+        end_line(&mut c, binary);
+        let values = scan::numbers(&mut c, m, NumType::I32, binary, "extremes");
+        assert_eq!(
+            values.unwrap(),
+            extremes.iter().map(|&v| v as f64).collect::<Vec<_>>()
+        );
+        assert_eq!(c.word(), Some(&b"POINT_DATA"[..]));
     }
 
     /// A unit square as one quad, a triangle strip over it and metadata, as VTK 9 writes 5.1.
