@@ -103,6 +103,21 @@ pub fn write_mesh(path: &Path, mesh: &TriMesh, point_data: &[PointData]) -> Resu
     write_mesh_with_cells(path, mesh, point_data, &[])
 }
 
+/// Whether the mesh format of `path` can hold the triangle array `name` (.vtp, .vtk and .ply
+/// can): a caller about to compute one checks before the work, not after it.
+pub fn check_holds_cell_data(path: &Path, name: &str) -> Result<()> {
+    let extension = extension(path);
+    if matches!(extension.as_str(), "stl" | "obj" | "off") {
+        return Err(Error::invalid_argument(format!(
+            "{}: {} cannot hold the triangle array {name:?}; write .vtp, .vtk or .ply, or one \
+             file per object",
+            path.display(),
+            extension.to_uppercase(),
+        )));
+    }
+    Ok(())
+}
+
 /// [`write_mesh`] with per-triangle integer arrays too, such as `object`, the label of each
 /// triangle when several segmented objects share one file. Only .vtp, .vtk and .ply can hold
 /// them; for .stl, .obj and .off, cell data is an error and nothing is written, since dropping
@@ -113,17 +128,10 @@ pub fn write_mesh_with_cells(
     point_data: &[PointData],
     cell_data: &[CellData],
 ) -> Result<()> {
-    let extension = extension(path);
-    if let (Some(data), "stl" | "obj" | "off") = (cell_data.first(), extension.as_str()) {
-        return Err(Error::invalid_argument(format!(
-            "{}: {} cannot hold the triangle array {:?}; write .vtp, .vtk or .ply, or one file \
-             per object",
-            path.display(),
-            extension.to_uppercase(),
-            data.name
-        )));
+    if let Some(data) = cell_data.first() {
+        check_holds_cell_data(path, data.name)?;
     }
-    match extension.as_str() {
+    match extension(path).as_str() {
         "vtp" => {
             let compression = vtk_xml::Compression::default();
             vtk_xml::write_vtp_with_cells(path, mesh, point_data, cell_data, compression)

@@ -332,9 +332,10 @@ fn check_request(volume: Volume<'_>, request: &ObjectsRequest) -> Result<()> {
     for object in &request.objects {
         let label = object.label;
         if label == 0 || label > MAX_LABEL {
+            let seeds: Vec<String> = object.seeds.iter().map(|s| format!("{s} mm")).collect();
             return Err(Error::invalid_argument(format!(
-                "object label {label} (seeds {:?} mm); labels are 1 to {MAX_LABEL}",
-                object.seeds
+                "object label {label} (seeds {}); labels are 1 to {MAX_LABEL}",
+                seeds.join(", ")
             )));
         }
         if object.seeds.is_empty() {

@@ -1,26 +1,6 @@
 use super::*;
 use crate::mesh_checks;
-use crate::phantom::{self, Family, PhantomOptions, Shape, Variant};
-
-/// The deepest point of the other object of a variant (world mm), on a half-millimetre lattice.
-fn other_seed(variant: &Variant) -> DVec3 {
-    let other = variant.other().expect("a pair");
-    let (lo, hi) = variant.other_bounds().expect("a pair");
-    let steps = ((hi - lo) / 0.5).ceil();
-    let mut best = (f64::INFINITY, lo);
-    for k in 0..=steps.z as usize {
-        for j in 0..=steps.y as usize {
-            for i in 0..=steps.x as usize {
-                let p = lo + 0.5 * DVec3::new(i as f64, j as f64, k as f64);
-                let d = other(p);
-                if d < best.0 {
-                    best = (d, p);
-                }
-            }
-        }
-    }
-    best.1
-}
+use crate::phantom::{self, Family, PhantomOptions, Shape};
 
 fn one(label: u32, seed: DVec3) -> ObjectSeeds {
     ObjectSeeds {
@@ -42,7 +22,7 @@ fn obstacle_of(mesh: &TriMesh, reach: f64) -> Arc<Obstacle> {
 fn two_touching_tubes_come_out_valid_apart_and_each_around_its_seed() {
     for number in [1, 6, 7] {
         let variant = Family::TouchingPair.variant(number).unwrap();
-        let seeds = [variant.seed(), other_seed(&variant)];
+        let seeds = [variant.seed(), variant.other_seed().unwrap()];
         let request = ObjectsRequest {
             objects: vec![one(1, seeds[0]), one(2, seeds[1])],
             ..ObjectsRequest::default()
@@ -94,7 +74,7 @@ fn a_stop_seed_keeps_the_object_out_and_is_not_returned() {
     let variant = Family::TouchingPair.variant(6).unwrap();
     let request = ObjectsRequest {
         objects: vec![one(3, variant.seed())],
-        stops: vec![other_seed(&variant)],
+        stops: vec![variant.other_seed().unwrap()],
         region: None,
     };
     let objects = segment_objects(

@@ -151,6 +151,8 @@ fn write_variant(args: &Args, family: Family) -> Result<Value> {
         "scalar_type": variant.image.scalar_type().name(),
         "seed_world": seed.to_array(),
         "seed_index": geometry.world_to_index(seed).to_array(),
+        "other_seed_world": variant.other_seed().map(|s| s.to_array()),
+        "other_seed_index": variant.other_seed().map(|s| geometry.world_to_index(s).to_array()),
         "genus": variant.genus(),
         "contrast": variant.contrast(),
         "parameters": parameters,

@@ -1,16 +1,21 @@
-//! `balloonseg segment INPUT --seed X,Y,Z [--seed ...] [--index] [--ras] -o OUTPUT [--stats F]
-//! [--png F]`
+//! `balloonseg segment INPUT --seed [L:]X,Y,Z [--seed ...] [--stop X,Y,Z ...]
+//! [--roi X0,Y0,Z0,X1,Y1,Z1] [--index] [--ras] -o OUTPUT [--stats F] [--png F]`
 
 use std::io::{IsTerminal, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
 use balloonseg::balloon::image_model::seed_statistics::{Neighbours, RAYS};
-use balloonseg::balloon::{Phase, SegmentationStats, Segmenter, VertexState};
-use balloonseg::io::{self, PointData, PointValues};
+use balloonseg::balloon::{
+    segment_objects, ObjectSeeds, ObjectsRequest, Phase, ProgressCallback, Region,
+    SegmentationStats, SegmentedObject, VertexState,
+};
+use balloonseg::io::{self, CellData, PointData, PointValues};
 use balloonseg::render::{self, RenderOptions};
-use balloonseg::{mesh_checks, self_intersection::self_intersections, Error, Geometry, Result};
+use balloonseg::{
+    mesh_checks, self_intersection::self_intersections, Error, Geometry, Result, TriMesh,
+};
 use glam::DVec3;
 use serde_json::json;
 
@@ -20,22 +25,35 @@ use crate::param_flags::ParamFlags;
 pub struct Args {
     /// Input volume (.mha, .mhd, .nrrd, .nhdr, .nii, .nii.gz, .vti, .vtk).
     input: PathBuf,
-    /// A seed inside the structure, "x,y,z" in world mm (LPS); repeat for more seeds.
-    #[arg(long = "seed", required = true, value_parser = crate::parse_triple, allow_hyphen_values = true)]
-    seeds: Vec<[f64; 3]>,
-    /// Seeds are voxel indices i,j,k instead of world coordinates.
+    /// A seed inside a structure, "x,y,z" in world mm (LPS), for object 1; "L:x,y,z" for
+    /// object L (a positive integer). Repeat for more seeds: seeds of one label grow as one
+    /// object, objects of different labels stop at each other.
+    #[arg(long = "seed", required = true, value_parser = parse_labelled_seed, allow_hyphen_values = true)]
+    seeds: Vec<(u32, [f64; 3])>,
+    /// A competitor's seed, "x,y,z": a balloon that only keeps the objects out of its structure
+    /// and is left out of the output (the heart, to get the aorta alone). Repeatable.
+    #[arg(long = "stop", value_parser = crate::parse_triple, allow_hyphen_values = true)]
+    stops: Vec<[f64; 3]>,
+    /// A box no object grows beyond, "x0,y0,z0,x1,y1,z1": two opposite corners in world mm
+    /// (RAS with --ras; never voxel indices).
+    #[arg(long, value_parser = parse_box, allow_hyphen_values = true)]
+    roi: Option<[f64; 6]>,
+    /// Seeds and stop seeds are voxel indices i,j,k instead of world coordinates.
     #[arg(long, conflicts_with = "ras")]
     index: bool,
-    /// Seeds are in RAS world coordinates, as 3D Slicer shows them.
+    /// Seeds, stop seeds and the region are in RAS world coordinates, as 3D Slicer shows them.
     #[arg(long)]
     ras: bool,
-    #[command(flatten)]
-    output: crate::Output,
-    /// Write run statistics as JSON to this file.
+    /// Output file; the format follows the extension. With several objects, a literal
+    /// "{label}" in the path writes one file per object; otherwise every object goes into one
+    /// .vtp, .vtk or .ply file with a triangle array `object` holding its label.
+    #[arg(short = 'o', long = "output")]
+    output: PathBuf,
+    /// Write run statistics as JSON to this file (with several objects, a list of them).
     #[arg(long)]
     stats: Option<PathBuf>,
     /// Write a picture of the result to this PNG file: three slices through the first seed with
-    /// the mesh's section, and a 3D view.
+    /// the meshes' sections, and a 3D view.
     #[arg(long)]
     png: Option<PathBuf>,
     /// The balloon's parameters, one flag each (see docs/interfaces.md).
@@ -43,9 +61,29 @@ pub struct Args {
     params: ParamFlags,
 }
 
+/// The literal an output path names each object's file by.
+const LABEL_PLACEHOLDER: &str = "{label}";
+
+/// Parses "x,y,z" (label 1) or "L:x,y,z".
+fn parse_labelled_seed(text: &str) -> std::result::Result<(u32, [f64; 3]), String> {
+    match text.split_once(':') {
+        None => Ok((1, crate::parse_triple(text)?)),
+        Some((label, point)) => {
+            let label = label.trim().parse::<u32>().map_err(|e| {
+                format!("'{label}' in '{text}' is not a label (a positive integer): {e}")
+            })?;
+            Ok((label, crate::parse_triple(point)?))
+        }
+    }
+}
+
+fn parse_box(text: &str) -> std::result::Result<[f64; 6], String> {
+    crate::parse_numbers(text, "x0,y0,z0,x1,y1,z1")
+}
+
 impl Args {
-    fn seed_world(&self, seed: [f64; 3], geometry: &Geometry) -> DVec3 {
-        let s = DVec3::from(seed);
+    fn world(&self, point: [f64; 3], geometry: &Geometry) -> DVec3 {
+        let s = DVec3::from(point);
         if self.index {
             geometry.index_to_world(s)
         } else if self.ras {
@@ -54,38 +92,96 @@ impl Args {
             s
         }
     }
+
+    /// The objects in increasing label order, the stop seeds and the region, in world mm.
+    fn request(&self, geometry: &Geometry) -> Result<ObjectsRequest> {
+        let mut objects: Vec<ObjectSeeds> = Vec::new();
+        let mut labels: Vec<u32> = self.seeds.iter().map(|&(label, _)| label).collect();
+        labels.sort_unstable();
+        labels.dedup();
+        for label in labels {
+            objects.push(ObjectSeeds {
+                label,
+                seeds: self
+                    .seeds
+                    .iter()
+                    .filter(|&&(l, _)| l == label)
+                    .map(|&(_, p)| self.world(p, geometry))
+                    .collect(),
+            });
+        }
+        let region = self
+            .roi
+            .map(|b| {
+                let corner = |p: [f64; 3]| {
+                    let p = DVec3::from(p);
+                    if self.ras {
+                        DVec3::new(-p.x, -p.y, p.z)
+                    } else {
+                        p
+                    }
+                };
+                Region::new(corner([b[0], b[1], b[2]]), corner([b[3], b[4], b[5]]))
+            })
+            .transpose()?;
+        Ok(ObjectsRequest {
+            objects,
+            stops: self
+                .stops
+                .iter()
+                .map(|&p| self.world(p, geometry))
+                .collect(),
+            region,
+        })
+    }
 }
 
 pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
     let start = Instant::now();
+    let per_object = args.output.to_string_lossy().contains(LABEL_PLACEHOLDER);
     let image = io::read_image(&args.input)?;
     let geometry = *image.geometry();
-    let seeds: Vec<DVec3> = args
-        .seeds
-        .iter()
-        .map(|&s| args.seed_world(s, &geometry))
-        .collect();
-    let mut segmenter = Segmenter::new(image.view(), args.params.params(threads)?, seeds[0])?;
-    for &seed in &seeds[1..] {
-        segmenter.add_seed(seed)?;
+    let request = args.request(&geometry)?;
+    if request.objects.len() > 1 && !per_object {
+        io::check_holds_cell_data(&args.output, "object")?;
     }
-    eprintln!("{}", window_line(segmenter.stats()));
-    if std::io::stderr().is_terminal() {
-        segmenter.set_progress(Some(Box::new(draw_progress)));
-    }
-    let result = segmenter.segment();
+    let progress: Option<ProgressCallback> = std::io::stderr()
+        .is_terminal()
+        .then(|| Box::new(draw_progress) as ProgressCallback);
+    let result = segment_objects(
+        image.view(),
+        args.params.params(threads)?,
+        &request,
+        progress,
+    );
     if std::io::stderr().is_terminal() {
         eprintln!();
     }
-    let (mesh, states) = result?;
-    let state_bytes: Vec<u8> = states.iter().map(|&s| s as u8).collect();
-    let point_data = [PointData {
-        name: "vertex_state",
-        values: PointValues::U8(&state_bytes),
-    }];
-    io::write_mesh(&args.output.path, &mesh, &point_data)?;
+    let objects = result?;
+    for object in &objects {
+        let name = if objects.len() > 1 {
+            format!("object {}: ", object.label)
+        } else {
+            String::new()
+        };
+        eprintln!("{name}{}", window_line(&object.stats));
+    }
+    write_meshes(&args.output, &objects, per_object)?;
     if let Some(path) = &args.stats {
-        let stats = stats_json(&mesh, segmenter.stats(), start.elapsed().as_secs_f64());
+        let total = start.elapsed().as_secs_f64();
+        let stats = match &objects[..] {
+            [one] => stats_json(&one.mesh, &one.stats, total),
+            _ => json!({
+                "objects": objects.iter().map(|o| {
+                    let mut entry = stats_json(&o.mesh, &o.stats, total);
+                    entry["label"] = json!(o.label);
+                    entry["seeds"] = json!(o.seeds.iter().map(|s| s.to_array()).collect::<Vec<_>>());
+                    entry
+                }).collect::<Vec<_>>(),
+                "stop_seeds": request.stops.iter().map(|s| s.to_array()).collect::<Vec<_>>(),
+                "seconds_total": total,
+            }),
+        };
         std::fs::write(
             path,
             serde_json::to_string_pretty(&stats).expect("plain JSON values"),
@@ -93,24 +189,83 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
         .map_err(|e| Error::io(format!("cannot write {}: {e}", crate::shown(path))))?;
     }
     if let Some(path) = &args.png {
+        let (all, _) = merged(&objects)?;
         let options = RenderOptions {
-            centre: Some(seeds[0]),
-            window: Some(segmenter.stats().display_window()),
+            centre: Some(request.objects[0].seeds[0]),
+            window: Some(objects[0].stats.display_window()),
             ..RenderOptions::default()
         };
         render::write_png(
             path,
-            &render::render_overview(&image.view(), Some(&mesh), &options)?,
+            &render::render_overview(&image.view(), Some(&all), &options)?,
         )?;
     }
-    let moving = states.iter().filter(|&&s| s == VertexState::Moving).count();
-    eprintln!(
-        "{}: {} points, {} triangles ({moving} vertices still moving)",
-        crate::shown(&args.output.path),
-        mesh.points().len(),
-        mesh.triangles().len()
-    );
     Ok(ExitCode::SUCCESS)
+}
+
+/// Every object's mesh in one, and the label of each triangle.
+fn merged(objects: &[SegmentedObject]) -> Result<(TriMesh, Vec<i32>)> {
+    let mut all = objects[0].mesh.clone();
+    for object in &objects[1..] {
+        all.append(&object.mesh)?;
+    }
+    let labels = objects
+        .iter()
+        .flat_map(|o| std::iter::repeat(o.label as i32).take(o.mesh.triangles().len()))
+        .collect();
+    Ok((all, labels))
+}
+
+/// One file per object where `path` holds the placeholder, else one file with a `vertex_state`
+/// point array and, for several objects, an `object` triangle array.
+fn write_meshes(path: &Path, objects: &[SegmentedObject], per_object: bool) -> Result<()> {
+    let write = |path: &Path, mesh: &TriMesh, states: &[VertexState], labels: Option<&[i32]>| {
+        let state_bytes: Vec<u8> = states.iter().map(|&s| s as u8).collect();
+        let point_data = [PointData {
+            name: "vertex_state",
+            values: PointValues::U8(&state_bytes),
+        }];
+        match labels {
+            Some(values) => io::write_mesh_with_cells(
+                path,
+                mesh,
+                &point_data,
+                &[CellData {
+                    name: "object",
+                    values,
+                }],
+            )?,
+            None => io::write_mesh(path, mesh, &point_data)?,
+        }
+        let moving = states.iter().filter(|&&s| s == VertexState::Moving).count();
+        eprintln!(
+            "{}: {} points, {} triangles ({moving} vertices still moving)",
+            crate::shown(path),
+            mesh.points().len(),
+            mesh.triangles().len()
+        );
+        Ok(())
+    };
+    if per_object {
+        for object in objects {
+            let named = path
+                .to_string_lossy()
+                .replace(LABEL_PLACEHOLDER, &object.label.to_string());
+            write(Path::new(&named), &object.mesh, &object.states, None)?;
+        }
+        return Ok(());
+    }
+    match objects {
+        [one] => write(path, &one.mesh, &one.states, None),
+        _ => {
+            let (all, labels) = merged(objects)?;
+            let states: Vec<VertexState> = objects
+                .iter()
+                .flat_map(|o| o.states.iter().copied())
+                .collect();
+            write(path, &all, &states, Some(&labels))
+        }
+    }
 }
 
 fn draw_progress(fraction: f64, phase: Phase) -> bool {

@@ -60,6 +60,9 @@ pub const VOXEL_BUDGET: usize = 3_000_000;
 /// Margin around what matters, mm.
 const MARGIN: f64 = 6.0;
 
+/// The lattice (mm) on which `Variant::other_seed` looks for the other object's deepest point.
+const OTHER_SEED_STEP: f64 = 0.5;
+
 impl Family {
     pub const ALL: [Family; 5] = [
         Family::CtScene,
@@ -380,6 +383,27 @@ impl Variant {
     /// A world box that contains the other object, if there is one.
     pub fn other_bounds(&self) -> Option<(DVec3, DVec3)> {
         self.design.other_layer.map(|_| self.design.other_bounds)
+    }
+
+    /// The deepest point of the other object, if there is one (world mm, on a lattice of
+    /// half a millimetre): where to seed it as an object of its own.
+    pub fn other_seed(&self) -> Option<DVec3> {
+        let other = self.other()?;
+        let (lo, hi) = self.other_bounds()?;
+        let steps = ((hi - lo) / OTHER_SEED_STEP).ceil();
+        let mut deepest = (f64::INFINITY, lo);
+        for k in 0..=steps.z as usize {
+            for j in 0..=steps.y as usize {
+                for i in 0..=steps.x as usize {
+                    let p = lo + OTHER_SEED_STEP * DVec3::new(i as f64, j as f64, k as f64);
+                    let d = other(p);
+                    if d < deepest.0 {
+                        deepest = (d, p);
+                    }
+                }
+            }
+        }
+        Some(deepest.1)
     }
 
     /// A world box (lo, hi) that contains the truth.
