@@ -257,6 +257,10 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         )
     }
 
+    pub(super) fn edge_length(&self) -> f64 {
+        self.edge_length
+    }
+
     pub(super) fn seeds(&self) -> &[DVec3] {
         &self.seeds
     }

@@ -24,7 +24,7 @@ use touching::cut_touching;
 /// balloon when looking for structures that touch: thinner parts have no core of their own.
 /// At 2.5, two tubes of radius 3.2 mm on 1.92 mm slices (a mean spacing of 1.29 mm) had none,
 /// and the second was taken in.
-const TOUCHING_EDGE_LENGTHS: f64 = 2.0;
+pub(in crate::balloon) const TOUCHING_EDGE_LENGTHS: f64 = 2.0;
 /// The largest move of a vertex by its mean curvature (`curvature_offset`), in voxels: on a
 /// vessel a voxel and a half in radius, triangles a voxel across and the fine image's blur
 /// move it by about 0.15 voxel, so only a structure well under a voxel reaches the cap.

@@ -198,7 +198,7 @@ pub(crate) fn cut_touching(
 /// The basins of `mask`'s thick parts (see the module's comment): a label per voxel
 /// (`u32::MAX` outside and in parts too thin for a core) and each basin's thickness, with basins
 /// at least `radius` mm thick to be parts of their own.
-fn find_basins(
+pub(in crate::balloon) fn find_basins(
     mask: &[bool],
     dims: [usize; 3],
     spacing: [f64; 3],
@@ -260,7 +260,7 @@ fn structures_cut_before(
 }
 
 /// The basins of `voxels`, those in one.
-fn basins_of(basins: &[u32], voxels: &[usize]) -> Vec<u32> {
+pub(in crate::balloon) fn basins_of(basins: &[u32], voxels: &[usize]) -> Vec<u32> {
     voxels
         .iter()
         .map(|&n| basins[n])
@@ -313,7 +313,7 @@ fn mark_voxels(
 }
 
 /// The voxel nearest the continuous index `p`, if it is on the grid.
-fn voxel_of(p: DVec3, dims: [usize; 3]) -> Option<usize> {
+pub(in crate::balloon) fn voxel_of(p: DVec3, dims: [usize; 3]) -> Option<usize> {
     let r = p.round();
     let on_grid = (0..3).all(|a| r[a] >= 0.0 && r[a] < dims[a] as f64);
     on_grid.then(|| r.x as usize + dims[0] * (r.y as usize + dims[1] * r.z as usize))

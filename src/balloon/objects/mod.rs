@@ -16,6 +16,7 @@
 //! One object without competitors is exactly [`Segmenter::segment`].
 
 pub(in crate::balloon) mod obstacle;
+mod partition;
 
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -24,17 +25,19 @@ use std::sync::Arc;
 
 use glam::DVec3;
 
+use crate::balloon::finishing::TOUCHING_EDGE_LENGTHS;
 use crate::balloon::image_model::region::Region;
 use crate::balloon::inflation::Inflation;
 use crate::balloon::params::BalloonParams;
 use crate::balloon::progress::{Phase, ProgressCallback};
 use crate::balloon::reparametrization::AfterReparametrization;
 use crate::balloon::segmenter::{SegmentationStats, Segmenter};
-use crate::balloon::surface::VertexState;
+use crate::balloon::surface::{Surface, VertexState};
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::volume::Volume;
 use obstacle::{crossings, Obstacle};
+use partition::repartition;
 
 /// The distance, in voxels of the smallest spacing, that a balloon keeps from another object:
 /// where two objects meet, the gap between them is about this wide, and their surfaces never
@@ -183,6 +186,10 @@ fn compete(members: &mut [Member<'_, '_>]) -> Result<Vec<(TriMesh, Vec<VertexSta
         if round == MAX_ROUNDS {
             break;
         }
+        if repartition_members(members, &mut indexes, reach, clearance)? {
+            restart(members, &mut runs, &used, &indexes, clearance);
+            continue;
+        }
         let mut cut = false;
         for i in 0..members.len() {
             let Member { label, segmenter } = &mut members[i];
@@ -199,12 +206,12 @@ fn compete(members: &mut [Member<'_, '_>]) -> Result<Vec<(TriMesh, Vec<VertexSta
             break;
         }
         for (i, member) in members.iter_mut().enumerate() {
-            let segmenter = &mut member.segmenter;
-            segmenter.set_obstacles(others(&indexes, i), clearance);
-            segmenter.release_frozen();
-            let left = segmenter.params().max_iterations.saturating_sub(used[i]);
-            runs[i] = Some(segmenter.start_inflation(Phase::Refinement, left));
+            member
+                .segmenter
+                .set_obstacles(others(&indexes, i), clearance);
+            member.segmenter.release_frozen();
         }
+        restart(members, &mut runs, &used, &indexes, clearance);
     }
     let mut results = Vec::with_capacity(members.len());
     for i in 0..members.len() {
@@ -215,12 +222,7 @@ fn compete(members: &mut [Member<'_, '_>]) -> Result<Vec<(TriMesh, Vec<VertexSta
         let (mesh, states) = segmenter
             .finish(left)
             .map_err(|e| e.context(describe(members[i].label)))?;
-        indexes[i] = Arc::new(Obstacle::new(
-            mesh.triangles()
-                .iter()
-                .map(|t| t.map(|v| mesh.points()[v as usize])),
-            reach,
-        ));
+        indexes[i] = Arc::new(Obstacle::of_mesh(&mesh, reach));
         results.push((mesh, states));
     }
     check_apart(members, &results, &indexes)?;
@@ -255,6 +257,55 @@ fn inflate_together(
         }
     }
     Ok(())
+}
+
+/// Settles the members' territories by the thick parts of their union (`partition`): the
+/// members whose surfaces it remade start again from them, frozen where they may not move on.
+/// Returns whether any basin changed hands.
+fn repartition_members(
+    members: &mut [Member<'_, '_>],
+    indexes: &mut [Arc<Obstacle>],
+    reach: f64,
+    clearance: f64,
+) -> Result<bool> {
+    let meshes: Vec<TriMesh> = members.iter().map(|m| m.segmenter.mesh().0).collect();
+    let seeds: Vec<&[DVec3]> = members.iter().map(|m| m.segmenter.seeds()).collect();
+    let geometry = *members[0].segmenter.volume_geometry();
+    let edge_length = members
+        .iter()
+        .map(|m| m.segmenter.edge_length())
+        .fold(f64::INFINITY, f64::min);
+    let radius = TOUCHING_EDGE_LENGTHS * edge_length;
+    let Some(remade) = repartition(&meshes, &seeds, &geometry, radius)? else {
+        return Ok(false);
+    };
+    for (index, mesh) in indexes.iter_mut().zip(&remade) {
+        *index = Arc::new(Obstacle::of_mesh(mesh, reach));
+    }
+    for (i, (member, mesh)) in members.iter_mut().zip(&remade).enumerate() {
+        let segmenter = &mut member.segmenter;
+        segmenter.set_obstacles(others(indexes, i), clearance);
+        let mut surface = Surface::from_mesh(mesh)?;
+        segmenter.freeze_outside_window(&mut surface);
+        segmenter.replace_surface(surface);
+    }
+    Ok(true)
+}
+
+/// A refinement for every member, with what is left of its steps.
+fn restart(
+    members: &mut [Member<'_, '_>],
+    runs: &mut [Option<Inflation>],
+    used: &[u32],
+    indexes: &[Arc<Obstacle>],
+    clearance: f64,
+) {
+    for (i, member) in members.iter_mut().enumerate() {
+        let segmenter = &mut member.segmenter;
+        segmenter.set_obstacles(others(indexes, i), clearance);
+        let left = segmenter.params().max_iterations.saturating_sub(used[i]);
+        runs[i] = Some(segmenter.start_inflation(Phase::Refinement, left));
+    }
 }
 
 /// The surfaces of all members but the `i`th.

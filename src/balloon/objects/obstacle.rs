@@ -84,6 +84,16 @@ impl Obstacle {
         }
     }
 
+    /// The closed surface `mesh` (world mm).
+    pub fn of_mesh(mesh: &TriMesh, reach: f64) -> Obstacle {
+        Obstacle::new(
+            mesh.triangles()
+                .iter()
+                .map(|t| t.map(|v| mesh.points()[v as usize])),
+            reach,
+        )
+    }
+
     /// The triangles' corners (world mm).
     pub fn triangles(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
         self.triangles.iter().map(Triangle::corners)

@@ -10,12 +10,7 @@ fn one(label: u32, seed: DVec3) -> ObjectSeeds {
 }
 
 fn obstacle_of(mesh: &TriMesh, reach: f64) -> Arc<Obstacle> {
-    Arc::new(Obstacle::new(
-        mesh.triangles()
-            .iter()
-            .map(|t| t.map(|v| mesh.points()[v as usize])),
-        reach,
-    ))
+    Arc::new(Obstacle::of_mesh(mesh, reach))
 }
 
 #[test]
