@@ -15,7 +15,7 @@
 #define BALLOON_VERSION_MAJOR 0
 
 // Compatible additions.
-#define BALLOON_VERSION_MINOR 2
+#define BALLOON_VERSION_MINOR 3
 
 #define BALLOON_VERSION_PATCH 0
 
@@ -77,6 +77,11 @@ typedef enum BalloonVertexState {
   // Belongs to a self-intersecting triangle (until the next re-parametrisation).
   BALLOON_VERTEX_FROZEN_BY_SELF_INTERSECTION = 2,
 } BalloonVertexState;
+
+// The objects segmented by balloon_segment_objects (opaque), in the order they were given,
+// without the stop seeds' balloons. Owned by the caller until balloon_objects_free; it does
+// not borrow the volume.
+typedef struct BalloonObjects BalloonObjects;
 
 // A balloon in a volume (opaque). Created by balloon_init, released by balloon_free. Used by
 // one thread at a time; distinct handles are independent.
@@ -141,6 +146,65 @@ typedef struct BalloonMeshReport {
   double volume_mm3;
 } BalloonMeshReport;
 
+// The balloon's parameters. Fill with `balloon_params_default`, then change what you need,
+// directly or by name with `balloon_params_set`. Each field's meaning, default and range is
+// in `balloon_param_info` (and docs/interfaces.md); NaN leaves reference_intensity, tolerance
+// and edge_length_mm unset, to be estimated around the first seed or taken from the volume.
+typedef struct BalloonParams {
+  // sizeof(BalloonParams); set by balloon_params_default, checked by balloon_init.
+  size_t struct_size;
+  double reference_intensity;
+  double tolerance;
+  double edge_length_mm;
+  double elastic_weight;
+  double bending_weight;
+  double inflation_weight;
+  double step_fraction;
+  uint32_t max_iterations;
+  uint32_t self_intersection_interval;
+  uint32_t refinement_iterations;
+  uint32_t max_reparametrizations;
+  // Growing past it fails with BALLOON_LEAK.
+  uint64_t max_vertices;
+  // 0 = all cores; the segmenter's own pool.
+  uint32_t threads;
+} BalloonParams;
+
+// The seeds of one object for balloon_segment_objects: `point_count` points, x, y, z
+// interleaved in world mm (3 * point_count doubles), that grow as one object named `label`
+// (1 to 2^31 - 1, distinct between objects).
+typedef struct BalloonObjectSeeds {
+  uint32_t label;
+  const double *points;
+  size_t point_count;
+} BalloonObjectSeeds;
+
+// Returns non-zero to cancel the running call, which then returns BALLOON_CANCELLED. It is
+// called only from the thread that called the library, with the fraction done (0 to 1) and
+// the phase's name ("inflation", "self-intersection", "reparametrization", "refinement",
+// "validation"), a string valid during the call only. It must not unwind (throw) into the
+// library, nor call the library with the same handle.
+typedef int (*BalloonProgressCallback)(double fraction, const char *phase, void *user_data);
+
+// What a segmentation did, besides the mesh.
+typedef struct BalloonStats {
+  // The caller sets it to sizeof(BalloonStats) before calling balloon_stats.
+  size_t struct_size;
+  // The reference intensity and tolerance in use (given or estimated).
+  double reference_intensity;
+  double tolerance;
+  double edge_length_mm;
+  // Steps of deformation so far (inflation and refinement).
+  uint32_t iterations;
+  uint32_t reparametrizations;
+  double seconds_inflation;
+  double seconds_self_intersection;
+  double seconds_reparametrization;
+  double seconds_refinement;
+  double seconds_validation;
+  double seconds_total;
+} BalloonStats;
+
 // One parameter, as `balloon_param_info` describes it. The strings are static and
 // NUL-terminated; never free them.
 typedef struct BalloonParamInfo {
@@ -170,56 +234,6 @@ typedef struct BalloonParamInfo {
   // The values it takes, in words (as in the error for a value outside them).
   const char *allowed;
 } BalloonParamInfo;
-
-// The balloon's parameters. Fill with `balloon_params_default`, then change what you need,
-// directly or by name with `balloon_params_set`. Each field's meaning, default and range is
-// in `balloon_param_info` (and docs/interfaces.md); NaN leaves reference_intensity, tolerance
-// and edge_length_mm unset, to be estimated around the first seed or taken from the volume.
-typedef struct BalloonParams {
-  // sizeof(BalloonParams); set by balloon_params_default, checked by balloon_init.
-  size_t struct_size;
-  double reference_intensity;
-  double tolerance;
-  double edge_length_mm;
-  double elastic_weight;
-  double bending_weight;
-  double inflation_weight;
-  double step_fraction;
-  uint32_t max_iterations;
-  uint32_t self_intersection_interval;
-  uint32_t refinement_iterations;
-  uint32_t max_reparametrizations;
-  // Growing past it fails with BALLOON_LEAK.
-  uint64_t max_vertices;
-  // 0 = all cores; the segmenter's own pool.
-  uint32_t threads;
-} BalloonParams;
-
-// What a segmentation did, besides the mesh.
-typedef struct BalloonStats {
-  // The caller sets it to sizeof(BalloonStats) before calling balloon_stats.
-  size_t struct_size;
-  // The reference intensity and tolerance in use (given or estimated).
-  double reference_intensity;
-  double tolerance;
-  double edge_length_mm;
-  // Steps of deformation so far (inflation and refinement).
-  uint32_t iterations;
-  uint32_t reparametrizations;
-  double seconds_inflation;
-  double seconds_self_intersection;
-  double seconds_reparametrization;
-  double seconds_refinement;
-  double seconds_validation;
-  double seconds_total;
-} BalloonStats;
-
-// Returns non-zero to cancel the running call, which then returns BALLOON_CANCELLED. It is
-// called only from the thread that called the library, with the fraction done (0 to 1) and
-// the phase's name ("inflation", "self-intersection", "reparametrization", "refinement",
-// "validation"), a string valid during the call only. It must not unwind (throw) into the
-// library, nor call the library with the same handle.
-typedef int (*BalloonProgressCallback)(double fraction, const char *phase, void *user_data);
 
 #ifdef __cplusplus
 extern "C" {
@@ -284,6 +298,76 @@ enum BalloonStatus balloon_self_intersections(const double *points,
                                               uint32_t *pairs_out,
                                               size_t pairs_capacity,
                                               size_t *pair_count_out);
+
+// Segments several objects at once: each object of `objects` (`object_count` of them) is a
+// balloon grown from its seeds, all grow together and stop at each other's surfaces
+// (docs/interfaces.md, "Several objects"). `stops` (x, y, z world mm, `stop_count` points; NULL
+// with 0) seeds competitors: balloons that only keep the objects out of their structure and
+// are left out of the result. `roi` is NULL or 6 doubles x0, y0, z0, x1, y1, z1: two opposite
+// corners (world mm) of a box that no balloon grows beyond. `params` may be NULL for the
+// defaults; the window of each object comes from its first seed unless given.
+//
+// `progress` (NULL = none) is called with `user_data` on this thread with the mean fraction
+// of all balloons; returning non-zero cancels the call (BALLOON_CANCELLED, no result).
+// On success `*out` receives the objects, to release with balloon_objects_free. Bad labels
+// (0, above 2^31 - 1, given twice), an object without points, non-finite seeds, seeds of two
+// objects (or a stop seed) in one voxel, more than 256 balloons, a flat or non-finite region
+// and a seed outside it are BALLOON_INVALID_ARGUMENT with a message naming the seed.
+//
+// # Safety
+// `volume` describes valid voxels, read during the call only. `objects` holds `object_count`
+// BalloonObjectSeeds (NULL only with 0), each with `3 * point_count` readable doubles;
+// `stops` holds `3 * stop_count` doubles (NULL only with 0); `roi` is NULL or holds 6
+// doubles; `params` is NULL or filled by balloon_params_default; `out` is writable.
+enum BalloonStatus balloon_segment_objects(const struct BalloonVolume *volume,
+                                           const struct BalloonParams *params,
+                                           const struct BalloonObjectSeeds *objects,
+                                           size_t object_count,
+                                           const double *stops,
+                                           size_t stop_count,
+                                           const double *roi,
+                                           BalloonProgressCallback progress,
+                                           void *user_data,
+                                           struct BalloonObjects **out);
+
+// `*count_out` receives the number of objects (stop seeds are not counted).
+//
+// # Safety
+// `r` is a live BalloonObjects; `count_out` is writable.
+enum BalloonStatus balloon_objects_count(const struct BalloonObjects *r, size_t *count_out);
+
+// `*label_out` receives the label of object `index` (0 to count - 1, in the order given).
+//
+// # Safety
+// `r` is a live BalloonObjects; `label_out` is writable.
+enum BalloonStatus balloon_objects_label(const struct BalloonObjects *r,
+                                         size_t index,
+                                         uint32_t *label_out);
+
+// A view of the mesh of object `index`: closed, 2-manifold, outward, free of
+// self-intersections and of crossings with the other objects, with its vertex states. The
+// arrays belong to `r` and stay valid until balloon_objects_free.
+//
+// # Safety
+// `r` is a live BalloonObjects; `out` is writable.
+enum BalloonStatus balloon_objects_mesh(const struct BalloonObjects *r,
+                                        size_t index,
+                                        struct BalloonMesh *out);
+
+// The statistics of object `index`'s balloon, as balloon_stats gives them for a segmenter.
+// The caller sets `out->struct_size` to sizeof(BalloonStats).
+//
+// # Safety
+// `r` is a live BalloonObjects; `out` is a writable BalloonStats.
+enum BalloonStatus balloon_objects_stats(const struct BalloonObjects *r,
+                                         size_t index,
+                                         struct BalloonStats *out);
+
+// Releases the objects of balloon_segment_objects; NULL is fine.
+//
+// # Safety
+// `r` is NULL or a live BalloonObjects, not used again afterwards.
+void balloon_objects_free(struct BalloonObjects *r);
 
 // The number of parameters: the fields of BalloonParams after struct_size.
 size_t balloon_param_count(void);

@@ -494,6 +494,159 @@ static void test_mesh_check_and_self_intersections(void) {
   CHECK(count == 0, "a tetrahedron does not intersect itself");
 }
 
+/* Several objects at once: two balls, each an object with its own label, come back in the order
+ * given, each a closed sphere; a stop seed's balloon is left out; a region of interest cuts an
+ * object; pointers, sizes and labels are checked. */
+static int cancel_objects(double fraction, const char *phase, void *calls) {
+  (void)fraction;
+  (void)phase;
+  ++*(int *)calls;
+  return 1;
+}
+
+static void test_objects(void) {
+  const Ball balls[2] = {{6.5, 12.0, 12.0, 4.5}, {17.5, 12.0, 12.0, 4.5}};
+  void *buffer = NULL;
+  BalloonVolume v = ball_volume(balls, 2, BALLOON_SCALAR_F32, I_FASTEST, &buffer);
+  BalloonParams p = window_params(1);
+  double a[3], b[3];
+  index_to_world(&balls[0], a);
+  index_to_world(&balls[1], b);
+  BalloonObjectSeeds objects[2];
+  objects[0].label = 7;
+  objects[0].points = b;
+  objects[0].point_count = 1;
+  objects[1].label = 3;
+  objects[1].points = a;
+  objects[1].point_count = 1;
+  BalloonObjects *r = NULL;
+  EXPECT_OK(balloon_segment_objects(&v, &p, objects, 2, NULL, 0, NULL, NULL, NULL, &r));
+  size_t count = 0;
+  EXPECT_OK(balloon_objects_count(r, &count));
+  CHECK(count == 2, "%zu objects", count);
+  double volumes[2] = {0, 0};
+  for (size_t i = 0; i < count && i < 2; ++i) {
+    uint32_t label = 0;
+    BalloonMesh m;
+    BalloonStats stats;
+    EXPECT_OK(balloon_objects_label(r, i, &label));
+    CHECK(label == objects[i].label, "object %zu has label %u, not %u", i, label,
+          objects[i].label);
+    EXPECT_OK(balloon_objects_mesh(r, i, &m));
+    CHECK(m.vertex_state != NULL, "object %zu has vertex states", i);
+    expect_valid_spheres(&m, 1, "an object");
+    volumes[i] = check_mesh(&m).volume_mm3;
+    double lo = m.points[0];
+    double hi = m.points[0];
+    for (size_t k = 0; k < m.point_count; ++k) {
+      lo = fmin(lo, m.points[3 * k]);
+      hi = fmax(hi, m.points[3 * k]);
+    }
+    const double *centre = objects[i].points;
+    CHECK(lo < centre[0] && centre[0] < hi && hi - lo < 11.0, "object %u spans x %g..%g", label,
+          lo, hi);
+    stats.struct_size = sizeof stats;
+    EXPECT_OK(balloon_objects_stats(r, i, &stats));
+    CHECK(stats.iterations > 0 && stats.reference_intensity == 200.0, "stats of object %u",
+          label);
+    stats.struct_size = 8;
+    EXPECT_ERROR(balloon_objects_stats(r, i, &stats), BALLOON_PARAMS_SIZE_MISMATCH, "struct_size");
+  }
+  /* A ball of radius 4.5 voxels of 1 x 1.25 x 0.8 mm: about 382 mm^3. */
+  CHECK(fabs(volumes[0] - volumes[1]) < 0.05 * volumes[0] && volumes[0] > 250.0,
+        "volumes %g and %g", volumes[0], volumes[1]);
+  uint32_t label = 0;
+  BalloonMesh m;
+  EXPECT_ERROR(balloon_objects_label(r, 2, &label), BALLOON_INVALID_ARGUMENT, "index 2");
+  EXPECT_ERROR(balloon_objects_mesh(r, 5, &m), BALLOON_INVALID_ARGUMENT, "index 5");
+  EXPECT_ERROR(balloon_objects_label(r, 0, NULL), BALLOON_NULL_POINTER, "label_out");
+  EXPECT_ERROR(balloon_objects_mesh(r, 0, NULL), BALLOON_NULL_POINTER, "out");
+  EXPECT_ERROR(balloon_objects_count(r, NULL), BALLOON_NULL_POINTER, "count_out");
+  EXPECT_ERROR(balloon_objects_count(NULL, &count), BALLOON_NULL_POINTER, "r is NULL");
+  balloon_objects_free(r);
+  balloon_objects_free(NULL);
+
+  /* A stop seed in the second ball: only the first object comes back. */
+  r = NULL;
+  EXPECT_OK(balloon_segment_objects(&v, &p, &objects[1], 1, b, 1, NULL, NULL, NULL, &r));
+  count = 0;
+  if (r) {
+    EXPECT_OK(balloon_objects_count(r, &count));
+    EXPECT_OK(balloon_objects_label(r, 0, &label));
+    CHECK(count == 1 && label == 3, "%zu objects with a stop seed, label %u", count, label);
+    EXPECT_OK(balloon_objects_mesh(r, 0, &m));
+    expect_valid_spheres(&m, 1, "an object beside a stop seed");
+  }
+  balloon_objects_free(r);
+
+  /* A region of interest that ends 1 mm past the first ball's centre cuts it. */
+  double roi[6] = {ORIGIN[0], ORIGIN[1], ORIGIN[2], a[0] + 1.0, ORIGIN[1] + 30.0,
+                   ORIGIN[2] + 20.0};
+  r = NULL;
+  EXPECT_OK(balloon_segment_objects(&v, &p, &objects[1], 1, NULL, 0, roi, NULL, NULL, &r));
+  if (r) {
+    EXPECT_OK(balloon_objects_mesh(r, 0, &m));
+    expect_valid_spheres(&m, 1, "an object cut by the region");
+    double hi = -1e300;
+    for (size_t k = 0; k < m.point_count; ++k) hi = fmax(hi, m.points[3 * k]);
+    CHECK(hi < a[0] + 1.6, "the cut object reaches x = %g, the region ends at %g", hi,
+          a[0] + 1.0);
+  }
+  balloon_objects_free(r);
+
+  /* A stop seed outside the region is named. */
+  r = NULL;
+  EXPECT_ERROR(balloon_segment_objects(&v, &p, &objects[1], 1, b, 1, roi, NULL, NULL, &r),
+               BALLOON_INVALID_ARGUMENT, "outside the region");
+  CHECK(r == NULL, "no result on failure");
+
+  /* Errors: nothing is written to *out. */
+  BalloonObjects *untouched = (BalloonObjects *)&count;
+  r = untouched;
+  objects[0].label = 0;
+  EXPECT_ERROR(balloon_segment_objects(&v, &p, objects, 2, NULL, 0, NULL, NULL, NULL, &r),
+               BALLOON_INVALID_ARGUMENT, "label 0");
+  objects[0].label = 3;
+  EXPECT_ERROR(balloon_segment_objects(&v, &p, objects, 2, NULL, 0, NULL, NULL, NULL, &r),
+               BALLOON_INVALID_ARGUMENT, "twice");
+  objects[0].label = 7;
+  EXPECT_ERROR(balloon_segment_objects(&v, &p, NULL, 2, NULL, 0, NULL, NULL, NULL, &r),
+               BALLOON_NULL_POINTER, "objects is NULL");
+  EXPECT_ERROR(balloon_segment_objects(&v, &p, objects, 0, NULL, 0, NULL, NULL, NULL, &r),
+               BALLOON_INVALID_ARGUMENT, "no object");
+  EXPECT_ERROR(balloon_segment_objects(&v, &p, objects, 2, NULL, 1, NULL, NULL, NULL, &r),
+               BALLOON_NULL_POINTER, "stops is NULL");
+  EXPECT_ERROR(balloon_segment_objects(NULL, &p, objects, 2, NULL, 0, NULL, NULL, NULL, &r),
+               BALLOON_NULL_POINTER, "volume");
+  EXPECT_ERROR(balloon_segment_objects(&v, &p, objects, 2, NULL, 0, NULL, NULL, NULL, NULL),
+               BALLOON_NULL_POINTER, "out");
+  objects[1].points = NULL;
+  EXPECT_ERROR(balloon_segment_objects(&v, &p, objects, 2, NULL, 0, NULL, NULL, NULL, &r),
+               BALLOON_NULL_POINTER, "objects[1].points");
+  objects[1].points = a;
+  objects[1].point_count = 0;
+  EXPECT_ERROR(balloon_segment_objects(&v, &p, objects, 2, NULL, 0, NULL, NULL, NULL, &r),
+               BALLOON_INVALID_ARGUMENT, "no seed");
+  objects[1].point_count = 1;
+  double nan_seed[3] = {NAN, b[1], b[2]};
+  objects[0].points = nan_seed;
+  EXPECT_ERROR(balloon_segment_objects(&v, &p, objects, 2, NULL, 0, NULL, NULL, NULL, &r),
+               BALLOON_INVALID_ARGUMENT, "not finite");
+  objects[0].points = b;
+  EXPECT_ERROR(balloon_segment_objects(&v, &p, objects, 2, a, 1, NULL, NULL, NULL, &r),
+               BALLOON_INVALID_ARGUMENT, "stop seed");
+  double flat[6] = {a[0], a[1], a[2], b[0], a[1], b[2] + 1.0};
+  EXPECT_ERROR(balloon_segment_objects(&v, &p, objects, 2, NULL, 0, flat, NULL, NULL, &r),
+               BALLOON_INVALID_ARGUMENT, "flat");
+  int calls = 0;
+  EXPECT_ERROR(balloon_segment_objects(&v, &p, objects, 2, NULL, 0, NULL, cancel_objects, &calls,
+                                       &r),
+               BALLOON_CANCELLED, "cancel");
+  CHECK(calls >= 1, "the callback was called %d times", calls);
+  CHECK(r == untouched, "*out is written only on success");
+  free(buffer);
+}
+
 int main(void) {
   CHECK(balloon_last_error_message(NULL, 0) == 0, "no message before the first error");
   test_version_and_status_strings();
@@ -507,5 +660,6 @@ int main(void) {
   test_two_seeds_and_leak();
   test_marching_cubes();
   test_mesh_check_and_self_intersections();
+  test_objects();
   return report("test_c_api");
 }

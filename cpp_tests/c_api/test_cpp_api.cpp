@@ -18,7 +18,11 @@ struct SegmenterDeleter {
 struct TriMeshDeleter {
   void operator()(BalloonTriMesh *m) const { balloon_trimesh_free(m); }
 };
+struct ObjectsDeleter {
+  void operator()(BalloonObjects *r) const { balloon_objects_free(r); }
+};
 using Segmenter = std::unique_ptr<BalloonSegmenter, SegmenterDeleter>;
+using Objects = std::unique_ptr<BalloonObjects, ObjectsDeleter>;
 using TriMesh = std::unique_ptr<BalloonTriMesh, TriMeshDeleter>;
 
 struct Voxels {
@@ -181,6 +185,21 @@ void every_function_once() {
   EXPECT_OK(balloon_self_intersections(m.points, m.point_count, m.triangles, m.triangle_count,
                                        nullptr, 0, &count));
   CHECK(count == 0, "%zu pairs", count);
+
+  BalloonObjectSeeds object = {5, seed, 1};
+  BalloonObjects *raw_objects = nullptr;
+  EXPECT_OK(balloon_segment_objects(&v.volume, &p, &object, 1, nullptr, 0, nullptr, nullptr,
+                                    nullptr, &raw_objects));
+  Objects objects(raw_objects);
+  size_t object_count = 0;
+  uint32_t label = 0;
+  EXPECT_OK(balloon_objects_count(objects.get(), &object_count));
+  EXPECT_OK(balloon_objects_label(objects.get(), 0, &label));
+  CHECK(object_count == 1 && label == 5, "%zu objects, label %u", object_count, label);
+  EXPECT_OK(balloon_objects_mesh(objects.get(), 0, &m));
+  expect_valid_spheres(&m, 1, "one object");
+  EXPECT_OK(balloon_objects_stats(objects.get(), 0, &stats));
+  balloon_objects_free(nullptr);
   std::vector<char> small(4, 'x');
   size_t n = balloon_last_error_message(small.data(), small.size());
   CHECK(n > 3 && small[3] == '\0', "truncated to 3 bytes of %zu", n);

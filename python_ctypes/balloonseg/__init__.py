@@ -33,9 +33,10 @@ from .segmenter import (
     default_params,
     parameter_info,
     segment,
+    segment_objects,
 )
 
-__version__ = "0.2.0"
+__version__ = "0.3.0"
 
 __all__ = [
     "BalloonError",
@@ -60,6 +61,7 @@ __all__ = [
     "marching_cubes",
     "parameter_info",
     "segment",
+    "segment_objects",
     "self_intersections",
     "version",
 ]

@@ -35,7 +35,7 @@ from pathlib import Path
 from .errors import BalloonError, error_for_status
 
 #: The version of the C ABI this package is written against.
-ABI_VERSION = (0, 2, 0)
+ABI_VERSION = (0, 3, 0)
 
 OK = 0
 
@@ -116,6 +116,14 @@ class BalloonMesh(Structure):
     ]
 
 
+class BalloonObjectSeeds(Structure):
+    _fields_ = [
+        ("label", c_uint32),
+        ("points", POINTER(c_double)),
+        ("point_count", c_size_t),
+    ]
+
+
 class BalloonStats(Structure):
     _fields_ = [
         ("struct_size", c_size_t),
@@ -154,6 +162,7 @@ PROGRESS_CALLBACK = CFUNCTYPE(c_int, c_double, c_char_p, c_void_p)
 _Status = c_int
 _Segmenter = c_void_p
 _TriMesh = c_void_p
+_Objects = c_void_p
 _Triple = POINTER(c_double)
 
 _SIGNATURES = {
@@ -197,6 +206,26 @@ _SIGNATURES = {
             POINTER(c_size_t),
         ],
     ),
+    "balloon_segment_objects": (
+        _Status,
+        [
+            POINTER(BalloonVolume),
+            POINTER(BalloonParams),
+            POINTER(BalloonObjectSeeds),
+            c_size_t,
+            POINTER(c_double),
+            c_size_t,
+            POINTER(c_double),
+            PROGRESS_CALLBACK,
+            c_void_p,
+            POINTER(_Objects),
+        ],
+    ),
+    "balloon_objects_count": (_Status, [_Objects, POINTER(c_size_t)]),
+    "balloon_objects_label": (_Status, [_Objects, c_size_t, POINTER(c_uint32)]),
+    "balloon_objects_mesh": (_Status, [_Objects, c_size_t, POINTER(BalloonMesh)]),
+    "balloon_objects_stats": (_Status, [_Objects, c_size_t, POINTER(BalloonStats)]),
+    "balloon_objects_free": (None, [_Objects]),
     "balloon_status_string": (c_char_p, [_Status]),
     "balloon_last_error_message": (c_size_t, [c_char_p, c_size_t]),
     "balloon_version": (c_char_p, []),

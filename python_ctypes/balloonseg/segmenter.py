@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import ctypes
 import functools
+import numbers
+from collections.abc import Mapping
 from typing import NamedTuple
 
 import numpy as np
@@ -109,19 +111,91 @@ def _number(name: str, value) -> float:
         raise InvalidArgumentError(f"{name} must be a number, got {value!r}") from e
 
 
-def _seeds(seed) -> np.ndarray:
+def _seeds(seed, name: str = "seed", empty: bool = False) -> np.ndarray:
+    """One point or K points (world mm) as a C-contiguous (K, 3) float64 array; K = 0 only when
+    ``empty`` allows it."""
     try:
-        seeds = np.asarray(seed, dtype=np.float64)
+        seeds = np.ascontiguousarray(seed, dtype=np.float64)
     except (TypeError, ValueError) as e:
-        raise InvalidArgumentError(f"seed must be numbers (x, y, z) in mm, got {seed!r}") from e
+        raise InvalidArgumentError(f"{name} must be numbers (x, y, z) in mm, got {seed!r}") from e
+    if empty and seeds.size == 0:
+        return np.zeros((0, 3))
     if seeds.ndim == 1:
         seeds = seeds[None, :]
     if seeds.ndim != 2 or seeds.shape[1] != 3 or len(seeds) == 0:
         raise InvalidArgumentError(
-            f"seed must be one point (x, y, z) or K points as a (K, 3) array in world mm, got "
+            f"{name} must be one point (x, y, z) or K points as a (K, 3) array in world mm, got "
             f"shape {np.shape(seed)}"
         )
     return seeds
+
+
+#: Labels cross the C ABI as uint32_t; the library takes 1 to 2**31 - 1 and names the others.
+_LABEL_LIMIT = 2**32
+
+
+def _objects(seed) -> list[tuple[int, np.ndarray]]:
+    """(label, (K, 3) seeds) per object: a dict ``{label: points}``, or label 1 for a point or
+    a (K, 3) array. Labels the C ABI cannot carry are refused here; the library checks the
+    rest (0, too large, seeds of two objects in one voxel)."""
+    if not isinstance(seed, Mapping):
+        return [(1, _seeds(seed))]
+    objects = []
+    for label, points in seed.items():
+        if (
+            isinstance(label, bool)
+            or not isinstance(label, numbers.Integral)
+            or not 0 <= label < _LABEL_LIMIT
+        ):
+            raise InvalidArgumentError(
+                f"seed label {label!r} is not a label: the keys of a seed dict are object labels, "
+                "integers from 1 to 2147483647"
+            )
+        objects.append((int(label), _seeds(points, f"seed[{label!r}]")))
+    return objects
+
+
+def _roi(roi):
+    """The region of interest as 6 C doubles (x0, y0, z0, x1, y1, z1), or None."""
+    if roi is None:
+        return None
+    try:
+        values = np.asarray(roi, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise InvalidArgumentError(
+            "roi must be 6 numbers x0, y0, z0, x1, y1, z1 (two opposite corners, world mm), "
+            f"got {roi!r}"
+        ) from e
+    if values.shape != (6,):
+        raise InvalidArgumentError(
+            "roi must be 6 numbers x0, y0, z0, x1, y1, z1 (two opposite corners, world mm), got "
+            f"an array of shape {values.shape}"
+        )
+    return (ctypes.c_double * 6)(*values)
+
+
+def _stats_dict(s: L.BalloonStats) -> dict:
+    """A BalloonStats as the ``stats`` of a Segmenter."""
+    return {
+        "reference_intensity": s.reference_intensity,
+        "tolerance": s.tolerance,
+        "edge_length_mm": s.edge_length_mm,
+        "iterations": s.iterations,
+        "reparametrizations": s.reparametrizations,
+        "seconds": {
+            "inflation": s.seconds_inflation,
+            "self_intersection": s.seconds_self_intersection,
+            "reparametrization": s.seconds_reparametrization,
+            "refinement": s.seconds_refinement,
+            "validation": s.seconds_validation,
+            "total": s.seconds_total,
+        },
+    }
+
+
+def _check_progress(callback) -> None:
+    if callback is not None and not callable(callback):
+        raise InvalidArgumentError(f"progress must be callable or None, got {callback!r}")
 
 
 def _as_c_triple(point) -> ctypes.Array:
@@ -204,8 +278,7 @@ class Segmenter:
 
     @progress.setter
     def progress(self, callback) -> None:
-        if callback is not None and not callable(callback):
-            raise InvalidArgumentError(f"progress must be callable or None, got {callback!r}")
+        _check_progress(callback)
         trampoline = L.PROGRESS_CALLBACK(self._on_progress) if callback else L.PROGRESS_CALLBACK()
         self._call(self._lib.balloon_set_progress_callback, trampoline, None)
         self._progress = callback
@@ -282,21 +355,7 @@ class Segmenter:
         reparametrizations, seconds (per phase and total)."""
         s = L.BalloonStats(struct_size=ctypes.sizeof(L.BalloonStats))
         self._call(self._lib.balloon_stats, ctypes.byref(s))
-        return {
-            "reference_intensity": s.reference_intensity,
-            "tolerance": s.tolerance,
-            "edge_length_mm": s.edge_length_mm,
-            "iterations": s.iterations,
-            "reparametrizations": s.reparametrizations,
-            "seconds": {
-                "inflation": s.seconds_inflation,
-                "self_intersection": s.seconds_self_intersection,
-                "reparametrization": s.seconds_reparametrization,
-                "refinement": s.seconds_refinement,
-                "validation": s.seconds_validation,
-                "total": s.seconds_total,
-            },
-        }
+        return _stats_dict(s)
 
 
 def segment(
@@ -307,9 +366,118 @@ def segment(
     direction=None,
     axes: str = "zyx",
     progress=None,
+    *,
+    stop=None,
+    roi=None,
     **params,
-) -> Mesh:
+):
     """Segments the structure around ``seed`` (see :class:`Segmenter` for the arguments) and
-    returns its surface."""
-    with Segmenter(volume, seed, spacing, origin, direction, axes, progress, **params) as s:
-        return s.segment()
+    returns its surface.
+
+    ``seed`` is one point (x, y, z), a (K, 3) array (one object grown from all of them), or a
+    dict ``{label: point or (K, 3) array}`` of objects that grow together and stop at each other
+    (labels 1 to 2**31 - 1). ``stop`` (a point or a (K, 3) array) seeds competitors: balloons
+    that keep the objects out of their structure and are not returned. ``roi`` is a box no
+    balloon grows beyond, 6 numbers x0, y0, z0, x1, y1, z1 (two opposite corners). All in world
+    mm. Returns the :class:`Mesh` of the only object, or a dict ``{label: Mesh}`` when ``seed``
+    is a dict of several labels (:func:`segment_objects` always gives the dict).
+    """
+    if not isinstance(seed, Mapping) and stop is None and roi is None:
+        with Segmenter(volume, seed, spacing, origin, direction, axes, progress, **params) as s:
+            return s.segment()
+    meshes = segment_objects(
+        volume, seed, spacing, origin, direction, axes, progress, stop=stop, roi=roi, **params
+    )
+    if isinstance(seed, Mapping) and len(meshes) > 1:
+        return meshes
+    (mesh,) = meshes.values()
+    return mesh
+
+
+class _Progress:
+    """The C progress callback of one call: a Python exception is kept (it must not unwind
+    through the library), cancels the call, and is raised once the call has returned."""
+
+    def __init__(self, callback):
+        _check_progress(callback)
+        self.callback = callback
+        self.error = None
+        self.c = L.PROGRESS_CALLBACK(self._call) if callback else L.PROGRESS_CALLBACK()
+
+    def _call(self, fraction: float, phase: bytes, _user_data) -> int:
+        try:
+            return 1 if self.callback(fraction, phase.decode()) else 0
+        except BaseException as e:  # noqa: BLE001 - raised by check
+            self.error = e
+            return 1
+
+    def check(self, status: int) -> None:
+        error, self.error = self.error, None
+        if error is not None:
+            raise error
+        L.check(status)
+
+
+def segment_objects(
+    volume,
+    seed,
+    spacing=(1.0, 1.0, 1.0),
+    origin=(0.0, 0.0, 0.0),
+    direction=None,
+    axes: str = "zyx",
+    progress=None,
+    *,
+    stop=None,
+    roi=None,
+    **params,
+) -> dict:
+    """Several objects at once (``balloon_segment_objects``), with the arguments of
+    :func:`segment`: always a dict ``{label: Mesh}``, in the order of ``seed`` (label 1 for a
+    point or a (K, 3) array). Each mesh is closed, 2-manifold, outward and apart from the
+    others; its ``stats`` add the object's ``label`` and its balloon's run. ``progress(fraction,
+    phase)`` gets the mean fraction of all balloons; returning True cancels the call with
+    CancelledError."""
+    objects = _objects(seed)
+    stops = _seeds(np.zeros((0, 3)) if stop is None else stop, "stop", empty=True)
+    region = _roi(roi)
+    callback = _Progress(progress)
+    params_struct = _params_struct(params)
+    lib = L.library()
+    c_volume, array = volume_view(volume, spacing, origin, direction, axes)
+    c_objects = (L.BalloonObjectSeeds * max(len(objects), 1))()
+    for c, (label, points) in zip(c_objects, objects):
+        c.label = label
+        c.points = points.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+        c.point_count = len(points)
+    handle = ctypes.c_void_p()
+    status = lib.balloon_segment_objects(
+        ctypes.byref(c_volume),
+        ctypes.byref(params_struct),
+        c_objects,
+        len(objects),
+        stops.ctypes.data_as(ctypes.POINTER(ctypes.c_double)) if len(stops) else None,
+        len(stops),
+        region,
+        callback.c,
+        None,
+        ctypes.byref(handle),
+    )
+    del array, objects  # the voxels and seeds are read during the call only
+    callback.check(status)
+    try:
+        count = ctypes.c_size_t()
+        L.check(lib.balloon_objects_count(handle, ctypes.byref(count)))
+        meshes = {}
+        for index in range(count.value):
+            label = ctypes.c_uint32()
+            L.check(lib.balloon_objects_label(handle, index, ctypes.byref(label)))
+            view = L.BalloonMesh()
+            L.check(lib.balloon_objects_mesh(handle, index, ctypes.byref(view)))
+            stats = L.BalloonStats(struct_size=ctypes.sizeof(L.BalloonStats))
+            L.check(lib.balloon_objects_stats(handle, index, ctypes.byref(stats)))
+            points, triangles, states = mesh_from_view(view)
+            run_stats = {"label": label.value, **_stats_dict(stats)}
+            meshes[label.value] = Mesh(points, triangles, states, run_stats)
+        return meshes
+    finally:
+        lib.balloon_objects_free(handle)

@@ -40,17 +40,35 @@ pub(crate) fn view(mesh: &TriMesh, vertex_state: *const u8) -> BalloonMesh {
     }
 }
 
-/// `count` elements of `what` at `ptr`, three per item; NULL is fine when `count` is 0.
+/// `count` items of `what` at `ptr`, three elements each; NULL is fine when `count` is 0.
 ///
 /// # Safety
 /// `ptr` must be NULL or point to `3 * count` readable `T`s.
-unsafe fn triples<'a, T>(ptr: *const T, count: usize, what: &str) -> Result<&'a [T], Failure> {
+pub(crate) unsafe fn triples<'a, T>(
+    ptr: *const T,
+    count: usize,
+    what: &str,
+) -> Result<&'a [T], Failure> {
+    // SAFETY: forwarded from the caller.
+    unsafe { items(ptr, count, 3, what) }
+}
+
+/// `count` items of `what` at `ptr`, `per_item` elements each; NULL is fine when `count` is 0.
+///
+/// # Safety
+/// `ptr` must be NULL or point to `per_item * count` readable `T`s.
+pub(crate) unsafe fn items<'a, T>(
+    ptr: *const T,
+    count: usize,
+    per_item: usize,
+    what: &str,
+) -> Result<&'a [T], Failure> {
     if count == 0 {
         return Ok(&[]);
     }
     require(ptr, what)?;
     let len = count
-        .checked_mul(3)
+        .checked_mul(per_item)
         .filter(|&n| {
             n.checked_mul(size_of::<T>())
                 .is_some_and(|b| b <= isize::MAX as usize)

@@ -12,11 +12,12 @@
 //!   snprintf-style. `balloon_status_string` describes a status statically.
 //! - **Panics** never cross the boundary: every body runs in `boundary::run`, which turns a panic
 //!   into `BALLOON_PANIC`. After it, only `balloon_free` is safe on the handle.
-//! - **Ownership and lifetimes.** `BalloonSegmenter` and `BalloonTriMesh` are opaque, made by
-//!   `balloon_init` / `balloon_marching_cubes`, released once by `balloon_free` /
-//!   `balloon_trimesh_free` (both accept NULL); never by `free()`. The voxels of a
+//! - **Ownership and lifetimes.** `BalloonSegmenter`, `BalloonTriMesh` and `BalloonObjects` are
+//!   opaque, made by `balloon_init` / `balloon_marching_cubes` / `balloon_segment_objects`,
+//!   released once by `balloon_free` / `balloon_trimesh_free` / `balloon_objects_free` (all
+//!   accept NULL); never by `free()`. The voxels of a
 //!   `BalloonVolume` are borrowed, not copied: until `balloon_free` for a segmenter, for the
-//!   duration of the call for a kernel. `BalloonMesh` views point into library memory and
+//!   duration of the call for a kernel or `balloon_segment_objects`. `BalloonMesh` views point into library memory and
 //!   stay valid until the next call that changes their owner, or until it is freed. Mesh
 //!   arrays given to kernels are read during the call only.
 //! - **Layouts.** Structs the caller fills or receives start with `struct_size`, checked
@@ -33,6 +34,7 @@
 mod boundary;
 mod kernels;
 mod mesh;
+mod objects;
 mod param_info;
 mod params;
 mod segmenter;
@@ -46,6 +48,10 @@ pub use kernels::{
     balloon_trimesh_view, BalloonMeshReport, BalloonTriMesh,
 };
 pub use mesh::BalloonMesh;
+pub use objects::{
+    balloon_objects_count, balloon_objects_free, balloon_objects_label, balloon_objects_mesh,
+    balloon_objects_stats, balloon_segment_objects, BalloonObjectSeeds, BalloonObjects,
+};
 pub use param_info::{
     balloon_param_count, balloon_param_info, balloon_params_get, balloon_params_set,
     BalloonParamInfo, BalloonParamKind,

@@ -16,7 +16,7 @@ use super::mesh::{view, BalloonMesh};
 use super::params::{check_struct_size, params_from_c, BalloonParams};
 use super::status::BalloonStatus;
 use super::volume::{volume_from_c, BalloonVolume};
-use crate::balloon::{Phase, Segmenter, VertexState};
+use crate::balloon::{Phase, ProgressCallback, SegmentationStats, Segmenter, VertexState};
 use crate::error::Result;
 use crate::mesh::TriMesh;
 
@@ -66,6 +66,26 @@ pub struct BalloonStats {
     pub seconds_total: f64,
 }
 
+impl From<&SegmentationStats> for BalloonStats {
+    fn from(stats: &SegmentationStats) -> Self {
+        let seconds = stats.seconds;
+        BalloonStats {
+            struct_size: size_of::<BalloonStats>(),
+            reference_intensity: stats.reference_intensity,
+            tolerance: stats.tolerance,
+            edge_length_mm: stats.edge_length,
+            iterations: stats.iterations,
+            reparametrizations: stats.reparametrizations,
+            seconds_inflation: seconds.inflation,
+            seconds_self_intersection: seconds.self_intersection,
+            seconds_reparametrization: seconds.reparametrization,
+            seconds_refinement: seconds.refinement,
+            seconds_validation: seconds.validation,
+            seconds_total: seconds.total(),
+        }
+    }
+}
+
 /// Returns non-zero to cancel the running call, which then returns BALLOON_CANCELLED. It is
 /// called only from the thread that called the library, with the fraction done (0 to 1) and
 /// the phase's name ("inflation", "self-intersection", "reparametrization", "refinement",
@@ -74,6 +94,24 @@ pub struct BalloonStats {
 pub type BalloonProgressCallback = Option<
     unsafe extern "C" fn(fraction: f64, phase: *const c_char, user_data: *mut c_void) -> c_int,
 >;
+
+/// The library's progress callback calling `cb` (None when `cb` is NULL): `true` (go on)
+/// while `cb` returns 0.
+///
+/// # Safety
+/// `cb` and `user_data` must stay valid for as long as the callback is used.
+pub(super) unsafe fn progress_from_c(
+    cb: BalloonProgressCallback,
+    user_data: *mut c_void,
+) -> Option<ProgressCallback<'static>> {
+    cb.map(|cb| {
+        Box::new(move |fraction: f64, phase: Phase| {
+            let name = CString::new(phase.name()).unwrap_or_default();
+            // SAFETY: by the promise of progress_from_c's caller.
+            unsafe { cb(fraction, name.as_ptr(), user_data) == 0 }
+        }) as ProgressCallback<'static>
+    })
+}
 
 /// A balloon in a volume (opaque). Created by balloon_init, released by balloon_free. Used by
 /// one thread at a time; distinct handles are independent.
@@ -86,13 +124,18 @@ pub struct BalloonSegmenter {
 }
 
 /// A mesh and its vertex states in the layout of the C views.
-struct ShownMesh {
-    mesh: TriMesh,
-    states: Vec<u8>,
+pub(super) struct ShownMesh {
+    pub mesh: TriMesh,
+    pub states: Vec<u8>,
 }
 
 impl ShownMesh {
-    fn new((mesh, states): (TriMesh, Vec<VertexState>)) -> Self {
+    /// A view of the mesh with its vertex states, valid while `self` lives unchanged.
+    pub(super) fn view(&self) -> BalloonMesh {
+        view(&self.mesh, self.states.as_ptr())
+    }
+
+    pub(super) fn new((mesh, states): (TriMesh, Vec<VertexState>)) -> Self {
         let states = states
             .into_iter()
             .map(|s| BalloonVertexState::from(s) as u8)
@@ -284,9 +327,8 @@ pub unsafe extern "C" fn balloon_mesh(
         // SAFETY: by the caller's promise.
         let h = unsafe { s.as_ref() }.ok_or_else(|| Failure::null("s"))?;
         require(out, "out")?;
-        let shown = h.shown();
         // SAFETY: non-NULL and writable.
-        unsafe { out.write(view(&shown.mesh, shown.states.as_ptr())) };
+        unsafe { out.write(h.shown().view()) };
         Ok(())
     })
 }
@@ -306,22 +348,7 @@ pub unsafe extern "C" fn balloon_stats(
         require(out, "out")?;
         // SAFETY: non-NULL; the leading size is read before the rest is trusted.
         unsafe { check_struct_size(out, "BalloonStats")? };
-        let stats = h.segmenter.stats();
-        let seconds = stats.seconds;
-        let c = BalloonStats {
-            struct_size: size_of::<BalloonStats>(),
-            reference_intensity: stats.reference_intensity,
-            tolerance: stats.tolerance,
-            edge_length_mm: stats.edge_length,
-            iterations: stats.iterations,
-            reparametrizations: stats.reparametrizations,
-            seconds_inflation: seconds.inflation,
-            seconds_self_intersection: seconds.self_intersection,
-            seconds_reparametrization: seconds.reparametrization,
-            seconds_refinement: seconds.refinement,
-            seconds_validation: seconds.validation,
-            seconds_total: seconds.total(),
-        };
+        let c = BalloonStats::from(h.segmenter.stats());
         // SAFETY: writable, and of this library's size.
         unsafe { out.write_unaligned(c) };
         Ok(())
@@ -343,13 +370,9 @@ pub unsafe extern "C" fn balloon_set_progress_callback(
     run(|| {
         // SAFETY: by the caller's promise.
         let h = unsafe { handle(s)? };
-        h.segmenter.set_progress(cb.map(|cb| {
-            Box::new(move |fraction: f64, phase: Phase| {
-                let name = CString::new(phase.name()).unwrap_or_default();
-                // SAFETY: the caller keeps `cb` and `user_data` valid while they are set.
-                unsafe { cb(fraction, name.as_ptr(), user_data) == 0 }
-            }) as Box<dyn FnMut(f64, Phase) -> bool>
-        }));
+        // SAFETY: the caller keeps `cb` and `user_data` valid while they are set.
+        h.segmenter
+            .set_progress(unsafe { progress_from_c(cb, user_data) });
         Ok(())
     })
 }

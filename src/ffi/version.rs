@@ -7,7 +7,7 @@ use super::boundary::run_infallible;
 /// Incompatible ABI changes; also the SONAME (libballoonseg.so.MAJOR).
 pub const BALLOON_VERSION_MAJOR: u32 = 0;
 /// Compatible additions.
-pub const BALLOON_VERSION_MINOR: u32 = 2;
+pub const BALLOON_VERSION_MINOR: u32 = 3;
 pub const BALLOON_VERSION_PATCH: u32 = 0;
 
 /// The version of the library, "MAJOR.MINOR.PATCH" (static, never NULL).
