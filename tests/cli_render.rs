@@ -28,6 +28,48 @@ fn png_size(path: &Path) -> (u32, u32) {
     (info.width, info.height)
 }
 
+/// The RGB bytes of a PNG file.
+fn png_pixels(path: &Path) -> Vec<[u8; 3]> {
+    let file = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let mut reader = png::Decoder::new(file).read_info().unwrap();
+    let mut bytes = vec![0; reader.output_buffer_size().unwrap()];
+    let frame = reader.next_frame(&mut bytes).unwrap();
+    assert_eq!(frame.color_type, png::ColorType::Rgb);
+    bytes[..frame.buffer_size()]
+        .chunks(3)
+        .map(|p| [p[0], p[1], p[2]])
+        .collect()
+}
+
+#[test]
+fn render_draws_several_meshes_each_in_its_colour() {
+    let dir = tempfile::tempdir().unwrap();
+    let at = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (volume, inner, outer) = (at("torus.mha"), at("inner.vtp"), at("outer.ply"));
+    succeed(&["phantom", "torus", "-o", &volume]);
+    succeed(&["isosurface", &volume, "--level", "800", "-o", &inner]);
+    succeed(&["isosurface", &volume, "--level", "200", "-o", &outer]);
+    let (one, two) = (at("one.png"), at("two.png"));
+    succeed(&[
+        "render", &inner, "--volume", &volume, "-o", &one, "--size", "120",
+    ]);
+    succeed(&[
+        "render", &inner, &outer, "--volume", &volume, "-o", &two, "--size", "120",
+    ]);
+    assert_eq!(png_size(Path::new(&two)), (242, 242));
+    let (yellow, violet) = ([255, 232, 0], [150, 130, 255]);
+    let count = |path: &str, colour: [u8; 3]| {
+        png_pixels(Path::new(path))
+            .into_iter()
+            .filter(|&p| p == colour)
+            .count()
+    };
+    assert!(count(&one, yellow) > 100 && count(&one, violet) == 0);
+    assert!(count(&two, yellow) > 100 && count(&two, violet) > 100);
+    let out = balloonseg(&["render", "--volume", &volume, "-o", &two]);
+    assert_eq!(out.status.code(), Some(2), "no mesh is a usage error");
+}
+
 #[test]
 fn render_and_segment_write_pictures_and_refuse_bad_arguments() {
     let dir = tempfile::tempdir().unwrap();

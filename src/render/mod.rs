@@ -1,6 +1,7 @@
 //! Pictures of a segmentation result (feature `io`), so that a leak shows at a glance: three
 //! orthogonal slices of the volume through a centre with the mesh's cross-section drawn over
-//! them, and a shaded 3D view of the whole mesh, laid out 2 × 2:
+//! them, and a shaded 3D view of the whole mesh, laid out 2 × 2 (several objects each in their
+//! own colour, [`render_objects`]):
 //!
 //! ```text
 //! axial (x–y, anterior up)        coronal (x–z, superior up)
@@ -42,7 +43,39 @@ const GAP: u32 = 2;
 /// The colour of labels.
 const INK: Rgb = [235, 235, 235];
 
-/// What to draw. Every `None` is chosen from the volume and the mesh.
+/// The objects' colours, in order (repeating after the last): a bright colour for the section
+/// lines in the slice panels and the legend, and a paler one of the same hue for the surface in
+/// the 3D view. The first is the single mesh's yellow and gold; the others keep clear of the
+/// cyan centre cross, the magenta of unknown voxels, the red of a surface's inside and of each
+/// other, yellow against violet first as the pair most people tell apart, colour-blind or not.
+const PALETTE: [(Rgb, [f64; 3]); 8] = [
+    ([255, 232, 0], [240.0, 214.0, 128.0]),   // yellow
+    ([150, 130, 255], [165.0, 155.0, 245.0]), // violet
+    ([40, 220, 90], [135.0, 215.0, 145.0]),   // green
+    ([255, 140, 0], [245.0, 170.0, 100.0]),   // orange
+    ([255, 105, 190], [240.0, 160.0, 210.0]), // pink
+    ([0, 200, 170], [120.0, 205.0, 190.0]),   // teal
+    ([190, 130, 70], [200.0, 160.0, 120.0]),  // brown
+    ([180, 255, 60], [200.0, 235.0, 140.0]),  // lime
+];
+
+/// The colour of object `n` (from 0) in [`render_objects`]'s picture: its section lines and its
+/// legend swatch (its surface in the 3D view is a paler shade of it). Colours repeat after the
+/// eighth object.
+pub fn object_colour(n: usize) -> Rgb {
+    PALETTE[n % PALETTE.len()].0
+}
+
+/// One object of [`render_objects`]'s picture: its mesh, in the volume's world space, and the
+/// text that names it in the legend (such as its label, "1").
+#[derive(Debug, Clone, Copy)]
+pub struct RenderObject<'a> {
+    pub mesh: &'a TriMesh,
+    pub label: &'a str,
+}
+
+/// What to draw. Every `None` is chosen from the volume and the mesh (with several objects, the
+/// union of their meshes: the box holding all of them).
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderOptions {
     /// The world point (mm, LPS) the three planes pass through, marked by a cross. Default:
@@ -75,10 +108,31 @@ impl Default for RenderOptions {
 /// The overview picture of `volume` and, if given, `mesh` (in the volume's world space): the
 /// axial, coronal and sagittal planes through the centre with the mesh's cross-section in
 /// yellow, and a shaded 3D view of the mesh. Places outside the volume are dark blue-grey,
-/// unknown (NaN) voxels magenta.
+/// unknown (NaN) voxels magenta. The same as [`render_objects`] with that one mesh (or none).
 pub fn render_overview(
     volume: &Volume<'_>,
     mesh: Option<&TriMesh>,
+    options: &RenderOptions,
+) -> Result<RgbImage> {
+    let objects: Vec<RenderObject<'_>> = mesh
+        .map(|mesh| RenderObject { mesh, label: "" })
+        .into_iter()
+        .collect();
+    render_objects(volume, &objects, options)
+}
+
+/// The overview picture of `volume` and several objects' meshes (in the volume's world space),
+/// each in its own colour ([`object_colour`]: yellow, violet, green, orange, ...): the axial,
+/// coronal and sagittal planes through the centre with every mesh's cross-section in its
+/// colour, and a shaded 3D view of all of them together, each surface in a paler shade of its
+/// colour, nearer surfaces hiding farther ones whichever object they belong to. With two or
+/// more objects, a legend in the 3D panel's lower right corner shows each object's colour and
+/// label (a label too long for half the panel is cut short, ending in ".."). One object gives exactly
+/// [`render_overview`]'s picture, no objects the volume alone. Every mesh must have triangles
+/// and reach into the volume.
+pub fn render_objects(
+    volume: &Volume<'_>,
+    objects: &[RenderObject<'_>],
     options: &RenderOptions,
 ) -> Result<RgbImage> {
     let size = options.panel_px;
@@ -89,7 +143,7 @@ pub fn render_overview(
     }
     let window = options.window.map(checked_window).transpose()?;
     let extent = VolumeBox::of(volume);
-    let bounds = mesh.map(|m| mesh_bounds(m, &extent)).transpose()?;
+    let bounds = union_bounds(objects, &extent)?;
     let centre = match options.centre {
         Some(c) => checked_centre(c, volume)?,
         None => default_centre(volume, bounds),
@@ -115,13 +169,15 @@ pub fn render_overview(
     let mut picture = RgbImage::new(side, side, [0, 0, 0]);
     let corners = [(0, 0), (size + GAP, 0), (0, size + GAP)];
     for (n, (plane, samples)) in planes.iter().zip(&samples).enumerate() {
-        let segments = match mesh {
-            Some(mesh) => {
-                let (normal, offset) = plane.normal_offset();
-                section::section(mesh, normal, offset)
-            }
-            None => Vec::new(),
-        };
+        let (normal, offset) = plane.normal_offset();
+        let sections: Vec<(Vec<[DVec3; 2]>, Rgb)> = objects
+            .iter()
+            .enumerate()
+            .map(|(n, object)| {
+                let segments = section::section(object.mesh, normal, offset);
+                (segments, object_colour(n))
+            })
+            .collect();
         let footnote = match plane.orientation {
             Orientation::Axial => format!("window {}..{}", short(window.lo), short(window.hi)),
             _ => String::new(),
@@ -130,13 +186,13 @@ pub fn render_overview(
             plane,
             samples,
             &window,
-            &segments,
+            &sections,
             volume.geometry(),
             &footnote,
         );
         picture.draw_image(&panel, corners[n].0, corners[n].1);
     }
-    picture.draw_image(&view_panel(mesh, size), size + GAP, size + GAP);
+    picture.draw_image(&view_panel(objects, size), size + GAP, size + GAP);
     Ok(picture)
 }
 
@@ -201,14 +257,41 @@ impl VolumeBox {
     }
 }
 
-/// The mesh's bounds; an error for a mesh without triangles or one beside the volume.
-fn mesh_bounds(mesh: &TriMesh, volume: &VolumeBox) -> Result<(DVec3, DVec3)> {
+/// The box holding all the objects' meshes, `None` without objects; an error for a mesh
+/// without triangles or one beside the volume.
+fn union_bounds(
+    objects: &[RenderObject<'_>],
+    volume: &VolumeBox,
+) -> Result<Option<(DVec3, DVec3)>> {
+    let mut union: Option<(DVec3, DVec3)> = None;
+    for (n, object) in objects.iter().enumerate() {
+        let name = match (objects.len(), object.label) {
+            (1, _) => "the mesh".to_string(),
+            (_, "") => format!("mesh {}", n + 1),
+            (_, label) => format!("the mesh of object {label}"),
+        };
+        let (lo, hi) = mesh_bounds(object.mesh, volume, &name)?;
+        union = Some(match union {
+            Some((l, h)) => (l.min(lo), h.max(hi)),
+            None => (lo, hi),
+        });
+    }
+    Ok(union)
+}
+
+/// The mesh's bounds; an error for a mesh without triangles or one beside the volume, naming
+/// the mesh as `name` ("the mesh").
+fn mesh_bounds(mesh: &TriMesh, volume: &VolumeBox, name: &str) -> Result<(DVec3, DVec3)> {
     let bounds = mesh.bounds().filter(|_| !mesh.triangles().is_empty());
     let Some((lo, hi)) = bounds else {
-        return Err(Error::invalid_mesh(
-            "the mesh has no triangles, so there is nothing to draw; render the volume without a \
-             mesh to see it alone",
-        ));
+        let instead = if name == "the mesh" {
+            "render the volume without a mesh to see it alone"
+        } else {
+            "leave it out to see the others"
+        };
+        return Err(Error::invalid_mesh(format!(
+            "{name} has no triangles, so there is nothing to draw; {instead}"
+        )));
     };
     if lo.cmple(volume.hi).all() && hi.cmpge(volume.lo).all() {
         return Ok((lo, hi));
@@ -220,7 +303,7 @@ fn mesh_bounds(mesh: &TriMesh, volume: &VolumeBox) -> Result<(DVec3, DVec3)> {
         )
     };
     Err(Error::invalid_argument(format!(
-        "the mesh ({}) lies outside the volume ({}); are both in the same world space? (LPS; a \
+        "{name} ({}) lies outside the volume ({}); are both in the same world space? (LPS; a \
          mesh in RAS has x and y negated)",
         span(lo, hi),
         span(volume.lo, volume.hi)
@@ -272,31 +355,95 @@ fn default_field(bounds: Option<(DVec3, DVec3)>, centre: DVec3, volume: &VolumeB
     }
 }
 
-/// The shaded 3D panel, or a dark one saying there is no mesh.
-fn view_panel(mesh: Option<&TriMesh>, size: u32) -> RgbImage {
+/// The shaded 3D panel of the objects, with a legend when there are several, or a dark one
+/// saying there is no mesh.
+fn view_panel(objects: &[RenderObject<'_>], size: u32) -> RgbImage {
     let scale = label_scale(size);
     let pad = margin(scale);
-    match mesh {
-        Some(mesh) => {
-            let camera = Camera::anterior_oblique();
-            // The side most of the surface faces is its outside, so that what shows in the
-            // inside's colour is what is oriented against the rest.
-            let inward = mesh.signed_volume() < 0.0;
-            let mut image = shading::shaded_view(mesh, &camera, size, inward);
-            shading::draw_triad(&mut image, &camera);
-            let title = if inward { "3D, normals inward" } else { "3D" };
-            image.text(pad, pad, title, scale, INK);
-            image
-        }
-        None => {
-            let mut image = RgbImage::new(size, size, shading::BACKGROUND);
-            let text = "no mesh";
-            let x = (size - font::text_width(text, scale)) as i64 / 2;
-            let y = (size - font::GLYPH_HEIGHT * scale) as i64 / 2;
-            image.text(x, y, text, scale, INK);
-            image
+    if objects.is_empty() {
+        let mut image = RgbImage::new(size, size, shading::BACKGROUND);
+        let text = "no mesh";
+        let x = (size - font::text_width(text, scale)) as i64 / 2;
+        let y = (size - font::GLYPH_HEIGHT * scale) as i64 / 2;
+        image.text(x, y, text, scale, INK);
+        return image;
+    }
+    let camera = Camera::anterior_oblique();
+    // The side most of a surface faces is its outside, so that what shows in the inside's
+    // colour is what is oriented against the rest.
+    let surfaces: Vec<shading::Surface<'_>> = objects
+        .iter()
+        .enumerate()
+        .map(|(n, object)| shading::Surface {
+            mesh: object.mesh,
+            colour: PALETTE[n % PALETTE.len()].1,
+            inward: object.mesh.signed_volume() < 0.0,
+        })
+        .collect();
+    let mut image = shading::shaded_view(&surfaces, &camera, size);
+    shading::draw_triad(&mut image, &camera);
+    let inward = surfaces.iter().filter(|s| s.inward).count();
+    let title = if inward == 0 {
+        "3D"
+    } else if inward == surfaces.len() {
+        "3D, normals inward"
+    } else {
+        "3D, some normals inward"
+    };
+    image.text(pad, pad, title, scale, INK);
+    if objects.len() > 1 {
+        draw_legend(&mut image, objects, scale);
+    }
+    image
+}
+
+/// Each object's colour swatch and label, one a row, in the lower right corner (the axes'
+/// triad is in the lower left), the first object on top; labels cut to fit half the panel.
+fn draw_legend(image: &mut RgbImage, objects: &[RenderObject<'_>], scale: u32) {
+    let size = image.width() as i64;
+    let pad = margin(scale);
+    let s = scale as i64;
+    let swatch = (font::GLYPH_HEIGHT * scale) as i64;
+    let room = size / 2 - swatch - 3 * s;
+    let labels: Vec<String> = objects
+        .iter()
+        .map(|o| fitted(o.label, scale, room as u32))
+        .collect();
+    let widest = labels
+        .iter()
+        .map(|l| font::text_width(l, scale) as i64)
+        .max()
+        .unwrap_or(0);
+    let left = size - pad - widest - swatch - 3 * s;
+    let row = swatch + 3 * s;
+    let top = size - pad - swatch - (objects.len() as i64 - 1) * row;
+    for (n, label) in labels.iter().enumerate() {
+        let y = top + n as i64 * row;
+        image.fill_rect(
+            left - s,
+            y - s,
+            swatch + 2 * s,
+            swatch + 2 * s,
+            [0, 0, 0],
+            1.0,
+        );
+        image.fill_rect(left, y, swatch, swatch, object_colour(n), 1.0);
+        if !label.is_empty() {
+            image.text(left + swatch + 3 * s, y, label, scale, INK);
         }
     }
+}
+
+/// `label`, or as much of it as fits in `width` pixels followed by "..".
+fn fitted(label: &str, scale: u32, width: u32) -> String {
+    if font::text_width(label, scale) <= width {
+        return label.to_string();
+    }
+    let mut cut: String = label.chars().collect();
+    while !cut.is_empty() && font::text_width(&format!("{cut}.."), scale) > width {
+        cut.pop();
+    }
+    format!("{cut}..")
 }
 
 #[cfg(test)]
@@ -529,6 +676,129 @@ mod tests {
             let e = render_overview(&phantom.image.view(), mesh, &options).unwrap_err();
             assert!(e.message().contains(expected), "{options:?}: {e}");
         }
+    }
+
+    /// A uniform 40 mm cube of 1 mm voxels from the origin.
+    fn plain_volume(voxels: &[f32]) -> Volume<'_> {
+        let geometry = crate::Geometry::with_spacing([1.0; 3], [0.0; 3]).unwrap();
+        Volume::from(crate::TypedVolume::contiguous(voxels, [40, 40, 40], geometry).unwrap())
+    }
+
+    fn count(pixels: &[(u32, u32, Rgb)], colour: Rgb) -> usize {
+        pixels.iter().filter(|p| p.2 == colour).count()
+    }
+
+    #[test]
+    fn two_objects_show_in_their_own_colours_in_every_panel_with_a_legend() {
+        let voxels = vec![100.0f32; 40 * 40 * 40];
+        let volume = plain_volume(&voxels);
+        // Apart along the diagonal, each crossing all three planes through the middle of both.
+        let first = TriMesh::icosphere(DVec3::splat(13.0), 9.0, 4);
+        let second = TriMesh::icosphere(DVec3::splat(27.0), 9.0, 4);
+        let objects = [
+            RenderObject {
+                mesh: &first,
+                label: "1",
+            },
+            RenderObject {
+                mesh: &second,
+                label: "2",
+            },
+        ];
+        let size = 200;
+        let options = RenderOptions {
+            panel_px: size,
+            ..RenderOptions::default()
+        };
+        let picture = render_objects(&volume, &objects, &options).unwrap();
+        let (yellow, violet) = (object_colour(0), object_colour(1));
+        assert_eq!(yellow, [255, 232, 0]);
+        for (col, row) in [(0, 0), (1, 0), (0, 1)] {
+            let panel = panel_pixels(&picture, size, col, row);
+            let (a, b) = (count(&panel, yellow), count(&panel, violet));
+            assert!(
+                a > 100 && b > 100,
+                "panel {col},{row}: {a} yellow, {b} violet"
+            );
+            // Each circle in its own corner: the yellow one about the first sphere.
+            let mean_x = |colour| {
+                let xs: Vec<f64> = panel
+                    .iter()
+                    .filter(|p| p.2 == colour)
+                    .map(|p| p.0 as f64)
+                    .collect();
+                xs.iter().sum::<f64>() / xs.len() as f64
+            };
+            assert!((mean_x(yellow) - mean_x(violet)).abs() > 40.0);
+        }
+        // The 3D view: both surfaces, in gold and in violet, and the legend's two swatches.
+        let view = panel_pixels(&picture, size, 1, 1);
+        let hue = |p: Rgb, n: usize| {
+            let c = PALETTE[n].1;
+            let k = (p[0] as f64 + p[1] as f64 + p[2] as f64) / (c[0] + c[1] + c[2]);
+            k > 0.1 && (0..3).all(|a| (p[a] as f64 - k * c[a]).abs() < 6.0)
+        };
+        let gold = view.iter().filter(|p| hue(p.2, 0)).count();
+        let lilac = view.iter().filter(|p| hue(p.2, 1)).count();
+        assert!(
+            gold > 2000 && lilac > 2000,
+            "{gold} gold, {lilac} lilac pixels"
+        );
+        let swatch = (font::GLYPH_HEIGHT * label_scale(size)).pow(2) as usize;
+        assert!(count(&view, yellow) >= swatch && count(&view, violet) >= swatch);
+        // One object is render_overview's picture, without a legend.
+        let one = render_objects(&volume, &objects[..1], &options).unwrap();
+        assert_eq!(
+            one,
+            render_overview(&volume, Some(&first), &options).unwrap()
+        );
+        assert_eq!(count(&panel_pixels(&one, size, 1, 1), yellow), 0);
+        assert_eq!(count(&panel_pixels(&one, size, 0, 0), violet), 0);
+    }
+
+    #[test]
+    fn the_default_view_holds_every_object_and_a_bad_one_is_named() {
+        let voxels = vec![100.0f32; 40 * 40 * 40];
+        let volume = plain_volume(&voxels);
+        let small = TriMesh::icosphere(DVec3::splat(8.0), 3.0, 2);
+        let far = TriMesh::icosphere(DVec3::splat(32.0), 3.0, 2);
+        let objects = |a, b| {
+            [
+                RenderObject {
+                    mesh: a,
+                    label: "aorta",
+                },
+                RenderObject {
+                    mesh: b,
+                    label: "heart",
+                },
+            ]
+        };
+        let extent = VolumeBox::of(&volume);
+        let bounds = union_bounds(&objects(&small, &far), &extent).unwrap();
+        assert_eq!(bounds, Some((DVec3::splat(5.0), DVec3::splat(35.0))));
+        assert_eq!(default_centre(&volume, bounds), DVec3::splat(20.0));
+        let empty = TriMesh::default();
+        let outside = far.clone().map_points(|p| p + DVec3::X * 200.0).unwrap();
+        let e = render_objects(&volume, &objects(&small, &empty), &RenderOptions::default())
+            .unwrap_err();
+        assert!(e.message().contains("object heart has no triangles"), "{e}");
+        let e = render_objects(
+            &volume,
+            &objects(&outside, &small),
+            &RenderOptions::default(),
+        )
+        .unwrap_err();
+        assert!(e.message().contains("object aorta ("), "{e}");
+        assert!(e.message().contains("outside the volume"), "{e}");
+    }
+
+    #[test]
+    fn long_legend_labels_are_cut_to_fit() {
+        assert_eq!(fitted("12", 2, 100), "12");
+        // 6 pixels a letter at scale 1, less the last space: 8 letters are 47 pixels.
+        assert_eq!(fitted("abdominal_aorta", 1, 47), "abdomi..");
+        assert_eq!(fitted("abdominal_aorta", 1, 5), "..");
     }
 
     #[test]

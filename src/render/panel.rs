@@ -1,6 +1,7 @@
-//! One slice panel: the plane resampled from the volume in the display window, the mesh's
-//! cross-section over it in bright yellow, a cross at the centre (the seed), the plane's name
-//! and position, the patient-orientation letters at its edges and a scale bar.
+//! One slice panel: the plane resampled from the volume in the display window, the meshes'
+//! cross-sections over it, each in its object's colour (the first bright yellow), a cross at
+//! the centre (the seed), the plane's name and position, the patient-orientation letters at its
+//! edges and a scale bar.
 
 use glam::{DVec2, DVec3};
 
@@ -10,9 +11,7 @@ use super::window::Window;
 use super::{font, label_scale, margin, INK};
 use crate::Geometry;
 
-/// The mesh's cross-section.
-pub(crate) const SECTION: Rgb = [255, 232, 0];
-/// The cross at the centre: cyan, distinct from the yellow section and from grey tissue.
+/// The cross at the centre: cyan, distinct from the sections' colours and from grey tissue.
 const CROSS: Rgb = [0, 215, 255];
 /// Width of the section's and the cross's lines in pixels: thick enough to see at a glance.
 const LINE_WIDTH: f64 = 2.0;
@@ -24,13 +23,14 @@ const BAR_MM: [f64; 6] = [10.0, 20.0, 50.0, 100.0, 200.0, 500.0];
 const MIN_BAR: f64 = 12.0;
 
 /// Draws the panel of `plane` from its `samples` (rows top to bottom, as
-/// [`super::slices::resample`] gives them), with the mesh's `segments` and, in the lower left
-/// corner, `footnote`.
+/// [`super::slices::resample`] gives them), with the meshes' `sections` (each mesh's segments
+/// and their colour, drawn in this order over all the meshes' dark outlines) and, in the lower
+/// left corner, `footnote`.
 pub(crate) fn slice_panel(
     plane: &SlicePlane,
     samples: &[Option<f64>],
     window: &Window,
-    segments: &[[DVec3; 2]],
+    sections: &[(Vec<[DVec3; 2]>, Rgb)],
     geometry: &Geometry,
     footnote: &str,
 ) -> RgbImage {
@@ -40,8 +40,14 @@ pub(crate) fn slice_panel(
         let (x, y) = (n as u32 % size, n as u32 / size);
         image.set(x, y, window.colour(sample));
     }
-    let section: Vec<[DVec2; 2]> = segments.iter().map(|s| s.map(|p| plane.pixel(p))).collect();
-    draw_outlined(&mut image, &section, SECTION);
+    let sections: Vec<(Vec<[DVec2; 2]>, Rgb)> = sections
+        .iter()
+        .map(|(segments, colour)| {
+            let lines = segments.iter().map(|s| s.map(|p| plane.pixel(p))).collect();
+            (lines, *colour)
+        })
+        .collect();
+    draw_all_outlined(&mut image, &sections);
     let scale = label_scale(size);
     draw_outlined(
         &mut image,
@@ -81,11 +87,20 @@ fn title(plane: &SlicePlane, geometry: &Geometry) -> String {
 
 /// Lines in `colour` over a dark outline; all outlines first, so that none covers a line.
 fn draw_outlined(image: &mut RgbImage, lines: &[[DVec2; 2]], colour: Rgb) {
-    for &[a, b] in lines {
+    draw_all_outlined(image, &[(lines.to_vec(), colour)]);
+}
+
+/// Groups of lines, each in its colour, over a dark outline: all groups' outlines first, so
+/// that none covers a line of another group where two objects touch; then the lines, group
+/// after group.
+fn draw_all_outlined(image: &mut RgbImage, groups: &[(Vec<[DVec2; 2]>, Rgb)]) {
+    for &[a, b] in groups.iter().flat_map(|(lines, _)| lines) {
         image.line(a, b, OUTLINE_WIDTH, [0, 0, 0]);
     }
-    for &[a, b] in lines {
-        image.line(a, b, LINE_WIDTH, colour);
+    for (lines, colour) in groups {
+        for &[a, b] in lines {
+            image.line(a, b, LINE_WIDTH, *colour);
+        }
     }
 }
 

@@ -1,15 +1,16 @@
-//! A shaded 3D view of a whole mesh: orthographic projection from an anterior-oblique
-//! direction, fitted to the mesh's bounds, z-buffered triangle rasterisation at pixel centres,
-//! flat Lambert shading with a little ambient light and a depth cue, and a small triad of the
-//! world axes.
+//! A shaded 3D view of one or several whole meshes: orthographic projection from an
+//! anterior-oblique direction, fitted to the meshes' joint bounds, z-buffered triangle
+//! rasterisation at pixel centres (one depth buffer for all meshes, so that each hides what is
+//! behind it whichever mesh that belongs to), flat Lambert shading of each mesh in its own
+//! colour with a little ambient light and a depth cue, and a small triad of the world axes.
 //!
 //! Triangles seen from their inside are drawn in another colour: on a consistently oriented
 //! closed surface the z-buffer hides every inside, so what shows of that colour is a hole, a
 //! wrongly oriented patch or an inside-out part. Which side is the outside is the caller's
 //! choice: the right-hand normal's side, or the other side for a mesh whose normals point
 //! inwards (as marching cubes gives them for a bright structure).
-//! Triangles are drawn one after another in their order, so the picture does not depend on the
-//! thread count; a tie in depth keeps the earlier triangle.
+//! Triangles are drawn one after another in their order, mesh after mesh, so the picture does not
+//! depend on the thread count; a tie in depth keeps the earlier triangle.
 
 use glam::{DMat3, DVec2, DVec3};
 
@@ -17,9 +18,8 @@ use super::raster::{self, Rgb, RgbImage};
 
 /// Background of the 3D panel.
 pub(crate) const BACKGROUND: Rgb = [18, 18, 24];
-/// The outside of the surface: a pale gold, akin to the sections' yellow.
-const FRONT: [f64; 3] = [240.0, 214.0, 128.0];
-/// The inside of the surface, where it shows: red, for something wrong.
+/// The inside of a surface, where it shows: red, for something wrong (whatever the surface's
+/// own colour).
 const BACK: [f64; 3] = [225.0, 60.0, 50.0];
 const AMBIENT: f64 = 0.22;
 /// How much darker the far side of the mesh is than the near side.
@@ -57,26 +57,36 @@ impl Camera {
     }
 }
 
-/// The mesh seen through `camera` on a `size` × `size` panel, fitted to its projected bounds;
-/// `inward` when the triangles' right-hand normals point to the inside.
-pub(crate) fn shaded_view(
-    mesh: &crate::TriMesh,
-    camera: &Camera,
-    size: u32,
-    inward: bool,
-) -> RgbImage {
-    let view: Vec<DVec3> = mesh
-        .points()
+/// One mesh of a 3D view and how to draw it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Surface<'a> {
+    pub mesh: &'a crate::TriMesh,
+    /// The colour of its outside in full light.
+    pub colour: [f64; 3],
+    /// Whether the triangles' right-hand normals point to the inside.
+    pub inward: bool,
+}
+
+/// The surfaces seen through `camera` on a `size` × `size` panel, fitted to their joint
+/// projected bounds.
+pub(crate) fn shaded_view(surfaces: &[Surface<'_>], camera: &Camera, size: u32) -> RgbImage {
+    let views: Vec<Vec<DVec3>> = surfaces
         .iter()
-        .map(|&p| DVec3::new(p.dot(camera.right), p.dot(camera.up), p.dot(camera.forward)))
+        .map(|surface| {
+            surface
+                .mesh
+                .points()
+                .iter()
+                .map(|&p| DVec3::new(p.dot(camera.right), p.dot(camera.up), p.dot(camera.forward)))
+                .collect()
+        })
         .collect();
     let mut image = RgbImage::new(size, size, BACKGROUND);
-    let Some(&first) = view.first() else {
+    let mut all = views.iter().flatten();
+    let Some(&first) = all.next() else {
         return image;
     };
-    let (lo, hi) = view
-        .iter()
-        .fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+    let (lo, hi) = all.fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p)));
     let extent = (hi - lo).truncate().max_element();
     let scale = if extent > 0.0 {
         FILL * size as f64 / extent
@@ -94,33 +104,36 @@ pub(crate) fn shaded_view(
     let depth_range = (hi.z - lo.z).max(f64::MIN_POSITIVE);
     let light = camera.light();
     let mut depth = vec![f64::INFINITY; size as usize * size as usize];
-    for (t, triangle) in mesh.triangles().iter().enumerate() {
-        let normal = {
-            let [a, b, c] = mesh.corners(t);
-            (b - a).cross(c - a).normalize_or_zero()
-        };
-        if normal == DVec3::ZERO {
-            continue;
-        }
-        let facing = (normal.dot(camera.forward) < 0.0) != inward;
-        // Lit from the side the viewer sees.
-        let lit = if normal.dot(camera.forward) < 0.0 {
-            normal
-        } else {
-            -normal
-        };
-        let base = if facing { FRONT } else { BACK };
-        let brightness = AMBIENT + (1.0 - AMBIENT) * lit.dot(light).max(0.0);
-        let v = triangle.map(|i| view[i as usize]);
-        raster::triangle_pixels(size, size, v.map(to_pixel), |x, y, w| {
-            let z = w[0] * v[0].z + w[1] * v[1].z + w[2] * v[2].z;
-            let at = y as usize * size as usize + x as usize;
-            if z < depth[at] {
-                depth[at] = z;
-                let cue = 1.0 - DEPTH_CUE * ((z - lo.z) / depth_range).clamp(0.0, 1.0);
-                image.set(x, y, base.map(|c| (c * brightness * cue).round() as u8));
+    for (surface, view) in surfaces.iter().zip(&views) {
+        let (mesh, inward) = (surface.mesh, surface.inward);
+        for (t, triangle) in mesh.triangles().iter().enumerate() {
+            let normal = {
+                let [a, b, c] = mesh.corners(t);
+                (b - a).cross(c - a).normalize_or_zero()
+            };
+            if normal == DVec3::ZERO {
+                continue;
             }
-        });
+            let facing = (normal.dot(camera.forward) < 0.0) != inward;
+            // Lit from the side the viewer sees.
+            let lit = if normal.dot(camera.forward) < 0.0 {
+                normal
+            } else {
+                -normal
+            };
+            let base = if facing { surface.colour } else { BACK };
+            let brightness = AMBIENT + (1.0 - AMBIENT) * lit.dot(light).max(0.0);
+            let v = triangle.map(|i| view[i as usize]);
+            raster::triangle_pixels(size, size, v.map(to_pixel), |x, y, w| {
+                let z = w[0] * v[0].z + w[1] * v[1].z + w[2] * v[2].z;
+                let at = y as usize * size as usize + x as usize;
+                if z < depth[at] {
+                    depth[at] = z;
+                    let cue = 1.0 - DEPTH_CUE * ((z - lo.z) / depth_range).clamp(0.0, 1.0);
+                    image.set(x, y, base.map(|c| (c * brightness * cue).round() as u8));
+                }
+            });
+        }
     }
     image
 }
@@ -155,6 +168,20 @@ pub(crate) fn draw_triad(image: &mut RgbImage, camera: &Camera) {
 mod tests {
     use super::*;
     use crate::mesh::test_shapes::icosphere;
+    use crate::TriMesh;
+
+    const GOLD: [f64; 3] = [240.0, 214.0, 128.0];
+    const BLUE: [f64; 3] = [140.0, 150.0, 250.0];
+
+    /// One mesh in gold.
+    fn view(mesh: &TriMesh, camera: &Camera, size: u32, inward: bool) -> RgbImage {
+        let surface = Surface {
+            mesh,
+            colour: GOLD,
+            inward,
+        };
+        shaded_view(&[surface], camera, size)
+    }
 
     fn drawn(image: &RgbImage, pick: impl Fn(Rgb) -> bool) -> usize {
         (0..image.height())
@@ -177,7 +204,7 @@ mod tests {
     #[test]
     fn a_sphere_is_a_disc_of_the_fitted_size_in_front_colours() {
         let size = 200;
-        let image = shaded_view(
+        let image = view(
             &icosphere(DVec3::new(5.0, -3.0, 40.0), 10.0, 4),
             &Camera::anterior_oblique(),
             size,
@@ -201,24 +228,73 @@ mod tests {
     fn an_inside_out_sphere_shows_its_inside_colour_unless_told_its_normals_point_in() {
         let flipped = icosphere(DVec3::ZERO, 10.0, 3).flipped();
         let camera = Camera::anterior_oblique();
-        let centre = shaded_view(&flipped, &camera, 120, false)
-            .pixel(60, 60)
-            .unwrap();
+        let centre = view(&flipped, &camera, 120, false).pixel(60, 60).unwrap();
         assert!(
             centre[0] > 2 * centre[1],
             "{centre:?} is not the inside's red"
         );
-        let inward = shaded_view(&flipped, &camera, 120, true);
-        assert_eq!(inward, shaded_view(&flipped.flipped(), &camera, 120, false));
+        let inward = view(&flipped, &camera, 120, true);
+        assert_eq!(inward, view(&flipped.flipped(), &camera, 120, false));
     }
 
     #[test]
     fn one_triangle_or_no_triangle_never_fails() {
-        let point = crate::TriMesh::new(vec![DVec3::ONE; 3], vec![[0, 1, 2]]).unwrap();
-        let image = shaded_view(&point, &Camera::anterior_oblique(), 64, false);
+        let point = TriMesh::new(vec![DVec3::ONE; 3], vec![[0, 1, 2]]).unwrap();
+        let image = view(&point, &Camera::anterior_oblique(), 64, false);
         assert_eq!(image.pixel(32, 32), Some(BACKGROUND));
-        let empty = crate::TriMesh::default();
-        let image = shaded_view(&empty, &Camera::anterior_oblique(), 64, false);
+        let empty = TriMesh::default();
+        let image = view(&empty, &Camera::anterior_oblique(), 64, false);
         assert_eq!(image.pixel(32, 32), Some(BACKGROUND));
+        let none = shaded_view(&[], &Camera::anterior_oblique(), 64);
+        assert_eq!(none.pixel(32, 32), Some(BACKGROUND));
+    }
+
+    #[test]
+    fn the_nearer_of_two_meshes_hides_the_other_whichever_comes_first() {
+        let camera = Camera::anterior_oblique();
+        // A blue sphere 30 mm in front of a gold one, on one line of sight, and a small gold
+        // one beside them: the view is fitted to all three.
+        let far = icosphere(DVec3::ZERO, 10.0, 4);
+        let near = icosphere(-30.0 * camera.forward, 6.0, 4);
+        let aside = icosphere(25.0 * camera.right, 3.0, 4);
+        let surface = |mesh, colour| Surface {
+            mesh,
+            colour,
+            inward: false,
+        };
+        let size = 200;
+        let in_order = shaded_view(
+            &[
+                surface(&far, GOLD),
+                surface(&near, BLUE),
+                surface(&aside, GOLD),
+            ],
+            &camera,
+            size,
+        );
+        let reversed = shaded_view(
+            &[
+                surface(&aside, GOLD),
+                surface(&near, BLUE),
+                surface(&far, GOLD),
+            ],
+            &camera,
+            size,
+        );
+        assert_eq!(in_order, reversed, "the order of the meshes shows");
+        // Fitted to 38 mm across (the far sphere's left to the small one's right).
+        let mm = FILL * size as f64 / 38.0;
+        let disc = |r: f64| std::f64::consts::PI * (r * mm).powi(2);
+        let blue = drawn(&in_order, |p| p != BACKGROUND && p[2] > p[0]) as f64;
+        let gold = drawn(&in_order, |p| p != BACKGROUND && p[0] > p[2]) as f64;
+        let (blue_expected, gold_expected) = (disc(6.0), disc(10.0) - disc(6.0) + disc(3.0));
+        assert!(
+            (blue - blue_expected).abs() < 0.05 * blue_expected,
+            "{blue} blue pixels, expected {blue_expected}"
+        );
+        assert!(
+            (gold - gold_expected).abs() < 0.05 * gold_expected,
+            "{gold} gold pixels, expected {gold_expected}"
+        );
     }
 }

@@ -46,7 +46,8 @@ enum Command {
     Phantom(phantom::Args),
     /// Run on the built-in phantoms, no input needed; writes meshes and a report.
     Demo(demo::Args),
-    /// A PNG of a mesh over three slices of its volume, and a shaded 3D view of it.
+    /// A PNG of a mesh (or several, each in its colour) over three slices of its volume, and a
+    /// shaded 3D view of it.
     Render(render::Args),
 }
 

@@ -12,7 +12,7 @@ use balloonseg::balloon::{
     SegmentationStats, SegmentedObject, VertexState,
 };
 use balloonseg::io::{self, CellData, PointData, PointValues};
-use balloonseg::render::{self, RenderOptions};
+use balloonseg::render::{self, RenderObject, RenderOptions};
 use balloonseg::{
     mesh_checks, self_intersection::self_intersections, Error, Geometry, Result, TriMesh,
 };
@@ -53,7 +53,8 @@ pub struct Args {
     #[arg(long)]
     stats: Option<PathBuf>,
     /// Write a picture of the result to this PNG file: three slices through the first seed with
-    /// the meshes' sections, and a 3D view.
+    /// the meshes' sections, and a 3D view; several objects each in their own colour (yellow,
+    /// violet, green, orange, ... in increasing label order), with a legend of their labels.
     #[arg(long)]
     png: Option<PathBuf>,
     /// The balloon's parameters, one flag each (see docs/interfaces.md).
@@ -189,7 +190,15 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
         .map_err(|e| Error::io(format!("cannot write {}: {e}", crate::shown(path))))?;
     }
     if let Some(path) = &args.png {
-        let (all, _) = merged(&objects)?;
+        let labels: Vec<String> = objects.iter().map(|o| o.label.to_string()).collect();
+        let shown: Vec<RenderObject<'_>> = objects
+            .iter()
+            .zip(&labels)
+            .map(|(o, label)| RenderObject {
+                mesh: &o.mesh,
+                label,
+            })
+            .collect();
         let options = RenderOptions {
             centre: Some(request.objects[0].seeds[0]),
             window: Some(objects[0].stats.display_window()),
@@ -197,7 +206,7 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
         };
         render::write_png(
             path,
-            &render::render_overview(&image.view(), Some(&all), &options)?,
+            &render::render_objects(&image.view(), &shown, &options)?,
         )?;
     }
     Ok(ExitCode::SUCCESS)
