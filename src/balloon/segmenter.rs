@@ -247,14 +247,36 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         self.apart_from = finished;
     }
 
-    /// The balloon as an obstacle to other objects, with exact distances within `reach` mm.
-    pub(super) fn as_obstacle(&self, reach: f64) -> Obstacle {
+    /// The balloon as an obstacle to other objects, with exact distances within `reach` mm:
+    /// of its triangles within the reach of one of the boxes `near` (lo, hi; world mm), or of
+    /// all of them.
+    pub(super) fn as_obstacle(&self, reach: f64, near: Option<&[(DVec3, DVec3)]>) -> Obstacle {
+        let within = |[a, b, c]: &[DVec3; 3]| {
+            let (lo, hi) = (a.min(*b).min(*c), a.max(*b).max(*c));
+            near.map_or(true, |boxes| {
+                boxes.iter().any(|&(l, h)| {
+                    (lo - DVec3::splat(reach)).cmple(h).all()
+                        && (hi + DVec3::splat(reach)).cmpge(l).all()
+                })
+            })
+        };
         Obstacle::new(
             self.surface
                 .triangles()
-                .map(|(t, _)| self.surface.triangle_corners(t).expect("live")),
+                .map(|(t, _)| self.surface.triangle_corners(t).expect("live"))
+                .filter(within),
             reach,
         )
+    }
+
+    /// The balloon's bounding box (lo, hi; world mm).
+    pub(super) fn bounds(&self) -> (DVec3, DVec3) {
+        self.surface
+            .live_vertices()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
+                let p = self.surface.positions()[v as usize];
+                (lo.min(p), hi.max(p))
+            })
     }
 
     pub(super) fn edge_length(&self) -> f64 {

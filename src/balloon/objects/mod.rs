@@ -162,9 +162,8 @@ fn compete(members: &mut [Member<'_, '_>]) -> Result<Vec<(TriMesh, Vec<VertexSta
     // A vertex moves less than a voxel per step, so a reach of two voxels sees every obstacle
     // it could step into, with room for the clearance.
     let reach = 2.0 * geometry.max_spacing();
-    let mut indexes: Vec<Arc<Obstacle>> = members
-        .iter()
-        .map(|m| Arc::new(m.segmenter.as_obstacle(reach)))
+    let mut indexes: Vec<Arc<Obstacle>> = (0..members.len())
+        .map(|i| index_near_others(members, i, reach))
         .collect();
     let mut runs: Vec<_> = members
         .iter()
@@ -198,7 +197,7 @@ fn compete(members: &mut [Member<'_, '_>]) -> Result<Vec<(TriMesh, Vec<VertexSta
                 .cut_touching(AfterReparametrization::Refinement)
                 .map_err(|e| e.context(describe(*label)))?
             {
-                indexes[i] = Arc::new(segmenter.as_obstacle(reach));
+                indexes[i] = Arc::new(segmenter.as_obstacle(reach, None));
                 cut = true;
             }
         }
@@ -214,6 +213,10 @@ fn compete(members: &mut [Member<'_, '_>]) -> Result<Vec<(TriMesh, Vec<VertexSta
         restart(members, &mut runs, &used, &indexes, clearance);
     }
     let mut results = Vec::with_capacity(members.len());
+    // Each finishes alone, its surface free to grow where the others were not near.
+    for (j, index) in indexes.iter_mut().enumerate() {
+        *index = Arc::new(members[j].segmenter.as_obstacle(reach, None));
+    }
     for i in 0..members.len() {
         let segmenter = &mut members[i].segmenter;
         segmenter.set_obstacles(others(&indexes, i), clearance);
@@ -249,10 +252,13 @@ fn inflate_together(
             let done = segmenter
                 .continue_inflation(run)
                 .map_err(|e| e.context(describe(*label)))?;
-            indexes[i] = Arc::new(segmenter.as_obstacle(reach));
             if done {
+                // Whole: the others may grow anywhere around a surface that no longer moves.
+                indexes[i] = Arc::new(members[i].segmenter.as_obstacle(reach, None));
                 used[i] += run.steps;
                 runs[i] = None;
+            } else {
+                indexes[i] = index_near_others(members, i, reach);
             }
         }
     }
@@ -306,6 +312,20 @@ fn restart(
         let left = segmenter.params().max_iterations.saturating_sub(used[i]);
         runs[i] = Some(segmenter.start_inflation(Phase::Refinement, left));
     }
+}
+
+/// The `i`th member's surface as an obstacle, for the others as they stand: only its triangles
+/// within two reaches of another member's bounding box, which no vertex of that member leaves
+/// by more than a step, nor the grid of its re-parametrisation by more than a reach. Far
+/// apart, objects cost each other nothing.
+fn index_near_others(members: &[Member<'_, '_>], i: usize, reach: f64) -> Arc<Obstacle> {
+    let grown = DVec3::splat(reach);
+    let others: Vec<(DVec3, DVec3)> = (0..members.len())
+        .filter(|&j| j != i)
+        .map(|j| members[j].segmenter.bounds())
+        .map(|(lo, hi)| (lo - grown, hi + grown))
+        .collect();
+    Arc::new(members[i].segmenter.as_obstacle(reach, Some(&others)))
 }
 
 /// The surfaces of all members but the `i`th.
