@@ -13,6 +13,11 @@
 // fire; AbortExecute cancels with an error and an empty output; the filter re-executes when a
 // parameter changes and not otherwise.
 //
+// VtkFilterObjects: labelled seeds (two balls apart, a bar cut between two objects), a stop seed
+// and a region of interest; the "object" cell array holds each triangle's label, every object is
+// a closed 2-manifold for OpenMesh and CGAL, the multiblock output has one block per object
+// named by its label, and one object without stops or region is the single balloon's mesh.
+//
 // Each segmentation runs once per process (cached), so this file is one ctest test.
 #include "support.h"
 
@@ -28,6 +33,11 @@
 
 #include <vtkCallbackCommand.h>
 #include <vtkCellArray.h>
+#include <vtkCellData.h>
+#include <vtkCompositeDataSet.h>
+#include <vtkInformation.h>
+#include <vtkIntArray.h>
+#include <vtkMultiBlockDataSet.h>
 #include <vtkCommand.h>
 #include <vtkDataArray.h>
 #include <vtkImageData.h>
@@ -39,6 +49,8 @@
 #include <vtkPolyData.h>
 #include <vtkSmartPointer.h>
 #include <vtkUnsignedCharArray.h>
+#include <vtkXMLMultiBlockDataReader.h>
+#include <vtkXMLMultiBlockDataWriter.h>
 #include <vtkXMLPolyDataReader.h>
 #include <vtkXMLPolyDataWriter.h>
 
@@ -666,5 +678,284 @@ TEST(VtkFilter, ReexecutesOnlyWhenSomethingChanged)
   EXPECT_NE(printed.str().find("EdgeLengthMm: 2"), std::string::npos) << printed.str();
   EXPECT_NE(printed.str().find("MaxVertices: 1000000\n"), std::string::npos)
     << "whole-number parameters print as integers";
+}
+// --- Several objects -----------------------------------------------------------------------------
+
+// Two bright balls (radius 4.5 mm) apart along x, centres (8, 12, 12) and (21, 12, 12).
+Phantom TwoBallsPhantom()
+{
+  return MakePhantom({ 30, 24, 24 }, { 1, 1, 1 }, { 8.0, 12.0, 12.0 },
+    [](double x, double y, double z) {
+      auto in = [&](double c) { return (x - c) * (x - c) + (y - 12) * (y - 12) + (z - 12) * (z - 12) <= 4.5 * 4.5; };
+      return in(8.0) || in(21.0);
+    });
+}
+
+// One bright bar along x (x = 4..25, y and z = 4..11): two seeds in it give objects that meet.
+Phantom BarPhantom()
+{
+  return MakePhantom({ 30, 16, 16 }, { 1, 1, 1 }, { 8.0, 7.5, 7.5 },
+    [](double x, double y, double z) {
+      return x >= 4 && x <= 25 && y >= 4 && y <= 11 && z >= 4 && z <= 11;
+    });
+}
+
+std::vector<int> ObjectArray(vtkPolyData* pd)
+{
+  auto* object = vtkIntArray::SafeDownCast(pd->GetCellData()->GetArray("object"));
+  EXPECT_NE(object, nullptr) << "no Int32 cell array \"object\"";
+  if (!object)
+  {
+    return {};
+  }
+  EXPECT_EQ(object->GetNumberOfValues(), pd->GetNumberOfPolys());
+  return std::vector<int>(object->GetPointer(0), object->GetPointer(0) + object->GetNumberOfValues());
+}
+
+// The blocks of port 1: count, names (the labels) and their order.
+std::vector<std::string> BlockNames(vtkMultiBlockDataSet* blocks)
+{
+  std::vector<std::string> names;
+  for (unsigned int b = 0; b < blocks->GetNumberOfBlocks(); ++b)
+  {
+    names.push_back(blocks->HasMetaData(b) && blocks->GetMetaData(b)->Has(vtkCompositeDataSet::NAME())
+        ? blocks->GetMetaData(b)->Get(vtkCompositeDataSet::NAME())
+        : "(no name)");
+  }
+  return names;
+}
+
+double MinX(const Mesh& m)
+{
+  double x = 1e300;
+  for (size_t p = 0; p < m.PointCount(); ++p)
+    x = std::min(x, m.points[3 * p]);
+  return x;
+}
+
+double MaxX(const Mesh& m)
+{
+  double x = -1e300;
+  for (size_t p = 0; p < m.PointCount(); ++p)
+    x = std::max(x, m.points[3 * p]);
+  return x;
+}
+
+// Labels 7 then 3: port 0 holds object 7's triangles then object 3's, with the "object" array;
+// port 1 two blocks named "7" and "3", each the part of port 0 with its label, closed and valid.
+TEST(VtkFilterObjects, TwoBallsObjectArrayAndBlocks)
+{
+  const Phantom p = TwoBallsPhantom();
+  vtkNew<vtkBalloonSegmentation> filter;
+  EventLog log;
+  log.Watch(filter);
+  filter->SetInputData(p.image);
+  filter->AddLabelledSeed(7, 21.0, 12.0, 12.0);
+  filter->AddLabelledSeed(3, 8.0, 12.0, 12.0);
+  filter->SetReferenceIntensity(200.0);
+  filter->SetTolerance(100.0);
+  filter->SetThreads(2);
+  EXPECT_EQ(filter->GetNumberOfObjects(), 2);
+  EXPECT_EQ(filter->GetSeedLabel(0), 7u);
+  EXPECT_EQ(filter->GetSeedLabel(2), 0u);
+  filter->Update();
+  ASSERT_EQ(log.errors, 0) << log.last_error;
+  EXPECT_GT(log.progress, 2);
+  EXPECT_EQ(filter->GetNumberOfOutputPorts(), 2);
+
+  vtkPolyData* all = filter->GetOutput();
+  const std::vector<int> labels = ObjectArray(all);
+  ASSERT_FALSE(labels.empty());
+  const auto sevens = std::count(labels.begin(), labels.end(), 7);
+  const auto threes = std::count(labels.begin(), labels.end(), 3);
+  EXPECT_GT(sevens, 100);
+  EXPECT_GT(threes, 100);
+  EXPECT_EQ(sevens + threes, static_cast<long>(labels.size()));
+  EXPECT_TRUE(std::is_sorted(labels.begin(), labels.end(), std::greater<int>()))
+    << "object 7's triangles first, then object 3's";
+
+  vtkMultiBlockDataSet* blocks = filter->GetMultiBlockOutput();
+  ASSERT_NE(blocks, nullptr);
+  EXPECT_EQ(blocks->GetNumberOfBlocks(), 2u);
+  EXPECT_EQ(BlockNames(blocks), (std::vector<std::string>{ "7", "3" }));
+  vtkIdType points = 0, triangles = 0;
+  for (unsigned int b = 0; b < blocks->GetNumberOfBlocks(); ++b)
+  {
+    auto* block = vtkPolyData::SafeDownCast(blocks->GetBlock(b));
+    ASSERT_NE(block, nullptr);
+    const int label = b == 0 ? 7 : 3;
+    const std::vector<int> own = ObjectArray(block);
+    EXPECT_TRUE(std::all_of(own.begin(), own.end(), [&](int l) { return l == label; }));
+    const Mesh m = FromPolyData(block);
+    CheckWithOpenMeshAndCgal("two balls, object " + std::to_string(label), m);
+    EXPECT_EQ(m.state.size(), m.PointCount());
+    const double centre = label == 7 ? 21.0 : 8.0;
+    EXPECT_LT(MinX(m), centre);
+    EXPECT_GT(MaxX(m), centre);
+    EXPECT_LT(MaxX(m) - MinX(m), 11.0) << "object " << label << " left its ball";
+    // Port 0 is the blocks one after the other (point ids shifted).
+    for (vtkIdType q = 0; q < block->GetNumberOfPoints(); ++q)
+    {
+      double a[3], c[3];
+      block->GetPoint(q, a);
+      all->GetPoint(points + q, c);
+      ASSERT_TRUE(a[0] == c[0] && a[1] == c[1] && a[2] == c[2]) << "point " << q;
+    }
+    points += block->GetNumberOfPoints();
+    triangles += block->GetNumberOfPolys();
+  }
+  EXPECT_EQ(points, all->GetNumberOfPoints());
+  EXPECT_EQ(triangles, all->GetNumberOfPolys());
+
+  // The multiblock port in a pipeline: a .vtm (one .vtp per object) read back with its names.
+  vtkNew<vtkXMLMultiBlockDataWriter> writer;
+  writer->SetInputConnection(filter->GetMultiBlockOutputPort());
+  writer->SetFileName("two-balls-objects.vtm");
+  ASSERT_EQ(writer->Write(), 1);
+  vtkNew<vtkXMLMultiBlockDataReader> reader;
+  reader->SetFileName("two-balls-objects.vtm");
+  reader->Update();
+  auto* back = vtkMultiBlockDataSet::SafeDownCast(reader->GetOutputDataObject(0));
+  ASSERT_NE(back, nullptr);
+  EXPECT_EQ(BlockNames(back), (std::vector<std::string>{ "7", "3" }));
+  ExpectSameMesh(FromPolyData(vtkPolyData::SafeDownCast(back->GetBlock(1))),
+    FromPolyData(vtkPolyData::SafeDownCast(blocks->GetBlock(1))), "object 3 written and read");
+
+  std::ostringstream printed;
+  filter->Print(printed);
+  EXPECT_NE(printed.str().find("Seed labels: 7 3"), std::string::npos) << printed.str();
+}
+
+// Two objects in one bar stop at each other: each stays on its side, and neither is empty.
+TEST(VtkFilterObjects, ObjectsInOneBarStopAtEachOther)
+{
+  const Phantom p = BarPhantom();
+  vtkNew<vtkBalloonSegmentation> filter;
+  EventLog log;
+  log.Watch(filter);
+  filter->SetInputData(p.image);
+  filter->SetSeed(8.0, 7.5, 7.5); // object 1
+  filter->AddLabelledSeed(2, 21.0, 7.5, 7.5);
+  filter->SetReferenceIntensity(200.0);
+  filter->SetTolerance(100.0);
+  filter->SetThreads(2);
+  filter->Update();
+  ASSERT_EQ(log.errors, 0) << log.last_error;
+  vtkMultiBlockDataSet* blocks = filter->GetMultiBlockOutput();
+  ASSERT_EQ(blocks->GetNumberOfBlocks(), 2u);
+  EXPECT_EQ(BlockNames(blocks), (std::vector<std::string>{ "1", "2" }));
+  const Mesh one = FromPolyData(vtkPolyData::SafeDownCast(blocks->GetBlock(0)));
+  const Mesh two = FromPolyData(vtkPolyData::SafeDownCast(blocks->GetBlock(1)));
+  CheckWithOpenMeshAndCgal("bar, object 1", one);
+  CheckWithOpenMeshAndCgal("bar, object 2", two);
+  // Each on its own side of the contact (which need not be flat), and no crossing (CGAL, on
+  // port 0's two objects together).
+  EXPECT_LT(MaxX(one), MinX(two) + 2.0) << "the objects overlap along the bar";
+  const Mesh both = FromPolyData(filter->GetOutput());
+  ASSERT_EQ(both.TriangleCount(), one.TriangleCount() + two.TriangleCount());
+  CgalMesh cm;
+  std::vector<CgalMesh::Vertex_index> cv;
+  for (size_t q = 0; q < both.PointCount(); ++q)
+  {
+    cv.push_back(cm.add_vertex({ both.points[3 * q], both.points[3 * q + 1], both.points[3 * q + 2] }));
+  }
+  for (size_t t = 0; t < both.TriangleCount(); ++t)
+  {
+    ASSERT_NE(cm.add_face(cv[both.triangles[3 * t]], cv[both.triangles[3 * t + 1]], cv[both.triangles[3 * t + 2]]),
+      CgalMesh::null_face());
+  }
+  EXPECT_FALSE(PMP::does_self_intersect<CGAL::Sequential_tag>(cm)) << "the objects cross";
+  EXPECT_LT(MinX(one), 5.0);
+  EXPECT_GT(MaxX(two), 24.0);
+  const std::vector<int> labels = ObjectArray(filter->GetOutput());
+  EXPECT_EQ(std::count(labels.begin(), labels.end(), 1), static_cast<long>(one.TriangleCount()));
+  EXPECT_EQ(std::count(labels.begin(), labels.end(), 2), static_cast<long>(two.TriangleCount()));
+}
+
+// One object through AddLabelledSeed, without stops or region, is the single balloon: the same
+// points, triangles and states as SetSeed, with "object" all equal to its label; a stop seed in
+// the other ball changes nothing there but is not in the output; a region cuts the ball.
+TEST(VtkFilterObjects, OneObjectStopSeedsAndRegion)
+{
+  const Phantom p = TwoBallsPhantom();
+  const Mesh single = RunFilter(p.image, p.seed);
+  ASSERT_GT(single.TriangleCount(), 100u);
+
+  vtkNew<vtkBalloonSegmentation> filter;
+  EventLog log;
+  log.Watch(filter);
+  filter->SetInputData(p.image);
+  filter->AddLabelledSeed(5, p.seed.data());
+  filter->SetThreads(2);
+  filter->Update();
+  ASSERT_EQ(log.errors, 0) << log.last_error;
+  ExpectSameMesh(FromPolyData(filter->GetOutput()), single, "one labelled object vs SetSeed");
+  const std::vector<int> labels = ObjectArray(filter->GetOutput());
+  EXPECT_TRUE(std::all_of(labels.begin(), labels.end(), [](int l) { return l == 5; }));
+  EXPECT_EQ(BlockNames(filter->GetMultiBlockOutput()), (std::vector<std::string>{ "5" }));
+  // SetSeed's output has the same "object" array, label 1.
+  vtkNew<vtkBalloonSegmentation> plain;
+  plain->SetInputData(p.image);
+  plain->SetSeed(p.seed.data());
+  plain->SetThreads(2);
+  plain->Update();
+  const std::vector<int> ones = ObjectArray(plain->GetOutput());
+  EXPECT_TRUE(!ones.empty() && std::all_of(ones.begin(), ones.end(), [](int l) { return l == 1; }));
+
+  filter->AddStopSeed(21.0, 12.0, 12.0);
+  EXPECT_EQ(filter->GetNumberOfStopSeeds(), 1);
+  filter->Update();
+  ASSERT_EQ(log.errors, 0) << log.last_error;
+  EXPECT_EQ(log.starts, 2);
+  const Mesh stopped = FromPolyData(filter->GetOutput());
+  EXPECT_EQ(filter->GetMultiBlockOutput()->GetNumberOfBlocks(), 1u) << "the stop seed's balloon is output";
+  EXPECT_LT(MaxX(stopped), 14.0);
+  CheckWithOpenMeshAndCgal("ball with a stop seed", stopped);
+
+  filter->RemoveAllStopSeeds();
+  const double roi[6] = { 0.0, 9.0, 0.0, 23.0, 0.0, 23.0 }; // xmin, xmax, ymin, ymax, zmin, zmax
+  filter->SetRegionOfInterest(roi);
+  double back[6];
+  ASSERT_TRUE(filter->GetRegionOfInterest(back));
+  EXPECT_TRUE(std::equal(roi, roi + 6, back));
+  filter->Update();
+  ASSERT_EQ(log.errors, 0) << log.last_error;
+  const Mesh cut = FromPolyData(filter->GetOutput());
+  EXPECT_LT(MaxX(cut), 9.6) << "the balloon grew beyond the region's xmax";
+  EXPECT_LT(MinX(cut), 5.0);
+  EXPECT_GT(MaxX(single), 12.0);
+  CheckWithOpenMeshAndCgal("ball cut by a region", cut);
+
+  filter->ClearRegionOfInterest();
+  EXPECT_FALSE(filter->HasRegionOfInterest());
+  filter->Update();
+  ExpectSameMesh(FromPolyData(filter->GetOutput()), single, "region cleared");
+}
+
+TEST(VtkFilterObjects, ErrorsCarryTheLibraryMessage)
+{
+  const Phantom p = TwoBallsPhantom();
+  vtkNew<vtkBalloonSegmentation> filter;
+  EventLog log;
+  log.Watch(filter);
+  filter->SetInputData(p.image);
+  filter->AddLabelledSeed(0, 8.0, 12.0, 12.0); // label 0 is refused by the library
+  filter->AddLabelledSeed(2, 21.0, 12.0, 12.0);
+  filter->Update();
+  EXPECT_EQ(filter->GetOutput()->GetNumberOfPolys(), 0);
+  EXPECT_EQ(filter->GetMultiBlockOutput()->GetNumberOfBlocks(), 0u);
+  EXPECT_GE(log.errors, 1);
+  EXPECT_NE(log.last_error.find("balloon_segment_objects"), std::string::npos) << log.last_error;
+  std::printf("error reported for label 0: %s\n", log.last_error.c_str());
+
+  filter->RemoveAllSeeds();
+  filter->AddLabelledSeed(1, 8.0, 12.0, 12.0);
+  filter->SetRegionOfInterest(10.0, 20.0, 0.0, 23.0, 0.0, 23.0); // the seed is outside
+  log.errors = 0;
+  filter->Update();
+  EXPECT_GE(log.errors, 1);
+  EXPECT_EQ(filter->GetOutput()->GetNumberOfPolys(), 0);
+  EXPECT_NE(log.last_error.find("balloon_segment_objects"), std::string::npos) << log.last_error;
+  std::printf("error reported for a seed outside the region: %s\n", log.last_error.c_str());
 }
 } // namespace
