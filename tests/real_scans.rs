@@ -5,10 +5,13 @@
 
 #![cfg(feature = "io")]
 
-use balloonseg::balloon::{BalloonParams, Segmenter, VertexState};
+use balloonseg::balloon::{
+    segment_objects, BalloonParams, ObjectSeeds, ObjectsRequest, Segmenter, VertexState,
+};
 use balloonseg::evaluation::{score_against_level_set, IndexBox, LevelSetScore};
 use balloonseg::marching_cubes::marching_cubes;
 use balloonseg::signed_distance::{signed_distance, SignedDistanceOptions};
+use balloonseg::winding_number::inside_mask;
 use balloonseg::{io, mesh_checks, self_intersection::self_intersections, Image};
 use balloonseg_testkit::data_dir;
 use glam::DVec3;
@@ -336,4 +339,58 @@ fn carotid_balloon_meets_itself_and_keeps_the_loops() {
     assert!(report.is_valid_closed_surface(), "{report:?}");
     assert!(self_intersections(&mesh).is_empty());
     assert!(report.genus().is_some_and(|g| g >= 1), "{report:?}");
+}
+
+#[test]
+fn carotid_inflow_arteries_as_three_objects_are_valid_and_apart() {
+    // Issue 16's real case: the README's seed and voxels (49, 22, 8) and (32, 33, 8), the three
+    // arteries that feed the circle of Willis. (Against the same three seeds as one object the
+    // union's Dice is 0.853, 2407 against 2151 voxels: each object has its own window.)
+    let Some(dir) = data_dir() else {
+        return;
+    };
+    let image = io::read_image(&dir.join("vtk-carotid/carotid.mha")).unwrap();
+    let geometry = *image.geometry();
+    let request = ObjectsRequest {
+        objects: [[17.0, 23.0, 8.0], [49.0, 22.0, 8.0], [32.0, 33.0, 8.0]]
+            .iter()
+            .zip(1..)
+            .map(|(&index, label)| ObjectSeeds {
+                label,
+                seeds: vec![geometry.index_to_world(DVec3::from_array(index))],
+            })
+            .collect(),
+        ..ObjectsRequest::default()
+    };
+    let objects = segment_objects(image.view(), BalloonParams::default(), &request, None).unwrap();
+    assert_eq!(objects.len(), 3);
+    let mut all = objects[0].mesh.clone();
+    for o in &objects {
+        let report = mesh_checks::check(&o.mesh);
+        assert!(report.is_valid_closed_surface(), "{}: {report:?}", o.label);
+        assert!(self_intersections(&o.mesh).is_empty(), "{}", o.label);
+        if o.label != 1 {
+            all.append(&o.mesh).unwrap();
+        }
+    }
+    assert!(self_intersections(&all).is_empty(), "two objects cross");
+    let masks: Vec<Vec<bool>> = objects
+        .iter()
+        .map(|o| inside_mask(&o.mesh, image.dims(), &geometry).unwrap())
+        .collect();
+    let count = |mask: &[bool]| mask.iter().filter(|&&m| m).count();
+    for a in 0..3 {
+        for b in a + 1..3 {
+            let both = masks[a]
+                .iter()
+                .zip(&masks[b])
+                .filter(|(&x, &y)| x && y)
+                .count();
+            let smaller = count(&masks[a]).min(count(&masks[b]));
+            assert!(
+                both * 100 <= smaller,
+                "objects {a} and {b} share {both} of {smaller} voxels"
+            );
+        }
+    }
 }

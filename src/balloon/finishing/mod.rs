@@ -47,8 +47,7 @@ impl Segmenter<'_, '_> {
             let radius = TOUCHING_EDGE_LENGTHS * s.edge_length;
             let (seeds, image) = (&s.seeds, &s.image);
             let free_depth = |p| image.free_depth(p);
-            let constrained = image.region().is_some() || !image.obstacles().is_empty();
-            let free_depth = constrained.then_some(&free_depth as _);
+            let free_depth = image.is_constrained().then_some(&free_depth as _);
             if let Some(cut) = s.pool.install(|| {
                 cut_touching(
                     &mesh,

@@ -228,8 +228,9 @@ impl<'v> ImageScales<'v> {
         true
     }
 
-    pub fn obstacles(&self) -> &[Arc<Obstacle>] {
-        &self.obstacles
+    /// Whether a region or other objects bound the balloon besides the image.
+    pub fn is_constrained(&self) -> bool {
+        self.region.is_some() || !self.obstacles.is_empty()
     }
 
     /// How far (mm) `x` is inside the space the region and the other objects leave to the

@@ -40,11 +40,10 @@ impl Segmenter<'_, '_> {
             let geometry = *s.volume.geometry();
             let (image, border) = (&s.image, s.border);
             let free_depth = |p| image.free_depth(p);
-            let constrained = image.region().is_some() || !image.obstacles().is_empty();
             let keep = Keep {
                 seeds: &s.seeds,
                 passable: &|p| border.passable(image, p),
-                free_depth: constrained.then_some(&free_depth as _),
+                free_depth: image.is_constrained().then_some(&free_depth as _),
             };
             let repaired = s
                 .pool
