@@ -8,7 +8,10 @@
 //! merge them.
 //!
 //! All objects inflate together, one step each in turn, in the order they were given, until
-//! each is at equilibrium; then each in that order goes through contacts, re-parametrisation,
+//! each is at equilibrium. Then their territories are settled by the thick parts of their union
+//! (`partition`), or, if nothing changed hands, each cuts off what it entered through a contact
+//! (`finishing::touching`), and all inflate together again into what was freed, for up to
+//! three rounds (`MAX_ROUNDS`). Then each in order goes through contacts, re-parametrisation,
 //! refinement, fairing and validation against the others as they stand (the final surfaces of
 //! those before it). Competitors (stop seeds) take part in all of it and are left out of the
 //! result: they keep an object from growing into the structure they fill.
