@@ -49,15 +49,13 @@ pub(crate) fn check(mesh: &TriMesh, point_data: &[PointData], reserved: &[&str])
     let mut seen = HashSet::new();
     for data in point_data {
         check_name("point data", data.name, reserved, &mut seen)?;
-        if data.values.len() != mesh.points().len() {
-            return Err(Error::invalid_argument(format!(
-                "point data {:?} has {} values but the mesh has {} points; give exactly one \
-                 value per point",
-                data.name,
-                data.values.len(),
-                mesh.points().len()
-            )));
-        }
+        check_count(
+            "point data",
+            data.name,
+            data.values.len(),
+            mesh.points().len(),
+            "point",
+        )?;
     }
     Ok(())
 }
@@ -68,17 +66,27 @@ pub(crate) fn check_cells(mesh: &TriMesh, cell_data: &[CellData], reserved: &[&s
     let mut seen = HashSet::new();
     for data in cell_data {
         check_name("cell data", data.name, reserved, &mut seen)?;
-        if data.values.len() != mesh.triangles().len() {
-            return Err(Error::invalid_argument(format!(
-                "cell data {:?} has {} values but the mesh has {} triangles; give exactly one \
-                 value per triangle",
-                data.name,
-                data.values.len(),
-                mesh.triangles().len()
-            )));
-        }
+        let triangles = mesh.triangles().len();
+        check_count(
+            "cell data",
+            data.name,
+            data.values.len(),
+            triangles,
+            "triangle",
+        )?;
     }
     Ok(())
+}
+
+/// One value per `element` (point or triangle), of which the mesh has `count`.
+fn check_count(what: &str, name: &str, values: usize, count: usize, element: &str) -> Result<()> {
+    if values == count {
+        return Ok(());
+    }
+    Err(Error::invalid_argument(format!(
+        "{what} {name:?} has {values} values but the mesh has {count} {element}s; give exactly \
+         one value per {element}"
+    )))
 }
 
 /// Checks one array name and records it in `seen`; `what` is "point data" or "cell data".
