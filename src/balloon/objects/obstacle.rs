@@ -1,6 +1,6 @@
 //! Another object's surface as an obstacle to a balloon (the paper's future work: balloons from
-//! several seeds that stop where they meet): a spatial hash of its triangles that answers, for a
-//! point near it, the exact signed distance to it — positive outside — and whether the point is
+//! several seeds that stop where they meet): a grid of cells over its triangles that answers, for
+//! a point near it, the exact signed distance to it — positive outside — and whether the point is
 //! closer to it than the clearance the objects keep between them.
 //!
 //! The sign is that of the angle-weighted pseudo-normal at the closest point (Bærentzen and
@@ -15,19 +15,16 @@
 //! that a point is taken to be outside; a balloon's vertex moves less than a step from where it
 //! was outside, so it never gets that deep into another object unseen.
 
-use std::collections::HashMap;
-use std::ops::Range;
 use std::sync::Arc;
 
 use glam::DVec3;
 
-use crate::balloon::fast_hash::FastHash;
 use crate::closest_point::Triangle;
 use crate::error::Result;
 use crate::mesh::TriMesh;
 use crate::self_intersection::self_intersections_among;
 
-/// Cell size of the hash, in reaches: a triangle a voxel across, grown by a reach on each side,
+/// Cell size of the grid, in reaches: a triangle a voxel across, grown by a reach on each side,
 /// enters about eight cells.
 const CELL_REACHES: f64 = 2.0;
 
@@ -37,50 +34,120 @@ const TIE: f64 = 1e-9;
 /// Another object's closed, outward surface, indexed for distance queries near it.
 pub(crate) struct Obstacle {
     triangles: Vec<Triangle>,
-    cell: f64,
+    /// Each triangle's bounding sphere (centroid, radius): a lower bound on the distance to it
+    /// that spares the exact test for most of a cell's triangles.
+    spheres: Vec<(DVec3, f64)>,
+    cells: Cells,
     reach: f64,
-    /// Triangle ids by cell, each cell a range of `entries`.
-    cells: HashMap<[i64; 3], Range<u32>, FastHash>,
+    /// Triangle ids by cell, each cell's ids in increasing order from `starts[cell]`.
+    starts: Vec<u32>,
     entries: Vec<u32>,
+}
+
+/// A dense grid of cells over the surface's box grown by the reach: the surface lies within
+/// the volume, so there are far fewer cells than voxels, and the index is filled by counting,
+/// without hashing or sorting, as it is rebuilt at every step.
+struct Cells {
+    size: f64,
+    lo: [i64; 3],
+    dims: [usize; 3],
+}
+
+impl Cells {
+    fn count(&self) -> usize {
+        self.dims.iter().product()
+    }
+
+    /// The cell of `x`, `None` beyond the grid.
+    fn of(&self, x: DVec3) -> Option<usize> {
+        let c = cell_of(x, self.size);
+        let mut id = 0;
+        for axis in (0..3).rev() {
+            let i = usize::try_from(c[axis] - self.lo[axis]).ok()?;
+            if i >= self.dims[axis] {
+                return None;
+            }
+            id = id * self.dims[axis] + i;
+        }
+        Some(id)
+    }
+
+    /// The cells that the box `lo..=hi` (world mm, inside the grid) overlaps.
+    fn overlapping(&self, lo: DVec3, hi: DVec3) -> impl Iterator<Item = usize> + '_ {
+        let (lo, hi) = (cell_of(lo, self.size), cell_of(hi, self.size));
+        let index = |c: i64, axis: usize| (c - self.lo[axis]) as usize;
+        let [nx, ny, _] = self.dims;
+        (index(lo[2], 2)..=index(hi[2], 2)).flat_map(move |k| {
+            (index(lo[1], 1)..=index(hi[1], 1)).flat_map(move |j| {
+                (index(lo[0], 0)..=index(hi[0], 0)).map(move |i| (k * ny + j) * nx + i)
+            })
+        })
+    }
 }
 
 impl Obstacle {
     /// The surface made of `triangles` (their corners, world mm), with exact distances within
     /// `reach` (mm, positive) of it.
     pub fn new(triangles: impl IntoIterator<Item = [DVec3; 3]>, reach: f64) -> Obstacle {
+        // A corner that is not finite has no place in the grid, nor any distance to give.
         let triangles: Vec<Triangle> = triangles
             .into_iter()
+            .filter(|corners| corners.iter().all(|c| c.is_finite()))
             .map(|[a, b, c]| Triangle::new(a, b, c))
             .collect();
-        let cell = CELL_REACHES * reach;
-        let mut keyed: Vec<([i64; 3], u32)> = Vec::with_capacity(8 * triangles.len());
-        for (t, triangle) in triangles.iter().enumerate() {
-            let [a, b, c] = triangle.corners();
-            let lo = cell_of(a.min(b).min(c) - DVec3::splat(reach), cell);
-            let hi = cell_of(a.max(b).max(c) + DVec3::splat(reach), cell);
-            for k in lo[2]..=hi[2] {
-                for j in lo[1]..=hi[1] {
-                    for i in lo[0]..=hi[0] {
-                        keyed.push(([i, j, k], t as u32));
-                    }
-                }
+        let spheres = triangles.iter().map(bounding_sphere).collect();
+        let grown = DVec3::splat(reach);
+        let boxes: Vec<(DVec3, DVec3)> = triangles
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.corners();
+                (a.min(b).min(c) - grown, a.max(b).max(c) + grown)
+            })
+            .collect();
+        let size = CELL_REACHES * reach;
+        let (lo, hi) = boxes
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), b| {
+                (lo.min(b.0), hi.max(b.1))
+            });
+        let cells = if boxes.is_empty() {
+            Cells {
+                size,
+                lo: [0; 3],
+                dims: [0; 3],
+            }
+        } else {
+            let (lo, hi) = (cell_of(lo, size), cell_of(hi, size));
+            Cells {
+                size,
+                lo,
+                dims: [0, 1, 2].map(|axis| (hi[axis] - lo[axis] + 1) as usize),
+            }
+        };
+        let mut starts = vec![0u32; cells.count() + 1];
+        for &(lo, hi) in &boxes {
+            for id in cells.overlapping(lo, hi) {
+                starts[id + 1] += 1;
             }
         }
-        keyed.sort_unstable();
-        let mut cells = HashMap::with_capacity_and_hasher(keyed.len() / 4, FastHash::default());
-        let mut start = 0;
-        while start < keyed.len() {
-            let key = keyed[start].0;
-            let end = start + keyed[start..].partition_point(|e| e.0 == key);
-            cells.insert(key, start as u32..end as u32);
-            start = end;
+        for id in 0..cells.count() {
+            starts[id + 1] += starts[id];
+        }
+        let mut filled = starts.clone();
+        let mut entries = vec![0u32; *starts.last().expect("one start at least") as usize];
+        for (t, &(lo, hi)) in boxes.iter().enumerate() {
+            for id in cells.overlapping(lo, hi) {
+                entries[filled[id] as usize] = t as u32;
+                filled[id] += 1;
+            }
         }
         Obstacle {
             triangles,
-            cell,
-            reach,
+            spheres,
             cells,
-            entries: keyed.into_iter().map(|(_, t)| t).collect(),
+            reach,
+            starts,
+            entries,
         }
     }
 
@@ -102,19 +169,36 @@ impl Obstacle {
     /// The signed distance (mm, positive outside) from `x` to the surface, when `x` is within
     /// the reach of it.
     pub fn signed_distance(&self, x: DVec3) -> Option<f64> {
-        let range = self.cells.get(&cell_of(x, self.cell))?.clone();
-        let near = &self.entries[range.start as usize..range.end as usize];
-        let closest = near
-            .iter()
-            .map(|&t| self.triangles[t as usize].distance_squared(x))
-            .fold(f64::INFINITY, f64::min)
-            .sqrt();
-        if closest.is_nan() || closest > self.reach {
+        let id = self.cells.of(x)?;
+        let near = &self.entries[self.starts[id] as usize..self.starts[id + 1] as usize];
+        // A triangle whose sphere lies farther than the closest found so far (or the reach)
+        // cannot be the closest nor tie with it; `slack` covers the bound's rounding.
+        let slack = TIE * (self.reach + x.abs().max_element().max(1.0));
+        let could_reach = |t: u32, limit: f64| {
+            let (centre, radius) = self.spheres[t as usize];
+            let within = limit + radius + slack;
+            (x - centre).length_squared() <= within * within
+        };
+        let mut closest = self.reach;
+        let mut found = false;
+        for &t in near {
+            if could_reach(t, closest) {
+                let d = self.triangles[t as usize].distance_squared(x).sqrt();
+                if d <= closest {
+                    closest = d;
+                    found = true;
+                }
+            }
+        }
+        if !found {
             return None;
         }
         let tie = closest + TIE * (closest + x.abs().max_element().max(1.0));
         let mut direction = 0.0;
         for &t in near {
+            if !could_reach(t, tie) {
+                continue;
+            }
             let triangle = &self.triangles[t as usize];
             let Some(normal) = triangle.normal() else {
                 continue;
@@ -169,6 +253,16 @@ fn corner_angle(triangle: &Triangle, c: DVec3, tie: f64) -> f64 {
         }
     }
     1.0
+}
+
+fn bounding_sphere(triangle: &Triangle) -> (DVec3, f64) {
+    let corners = triangle.corners();
+    let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
+    let radius = corners
+        .iter()
+        .map(|&c| (c - centre).length())
+        .fold(0.0, f64::max);
+    (centre, radius)
 }
 
 fn cell_of(x: DVec3, cell: f64) -> [i64; 3] {
