@@ -234,7 +234,7 @@ pub fn mask_surface_distances(
     let surface_b = mask_surface(&cropped(b), crop);
     let one_way = |from: &[bool], to: &[bool]| {
         let off_surface: Vec<bool> = to.iter().map(|&s| !s).collect();
-        let distance = crate::morphology::distance_to_outside(&off_surface, crop, spacing);
+        let distance = crate::distance_transform::distance_to_outside(&off_surface, crop, spacing);
         let samples = from
             .iter()
             .zip(distance)

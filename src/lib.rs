@@ -25,9 +25,9 @@ pub mod volume;
 // The kernels live together in src/kernels/ and are reached from the root, as before.
 pub(crate) use kernels::disjoint_sets;
 pub use kernels::{
-    closest_point, digital_topology, marching_cubes, mesh_checks, morphology, predicates,
-    self_intersection, signed_distance, smoothed_volume, spatial_hash, triangle_intersection,
-    winding_number,
+    closest_point, digital_topology, distance_transform, marching_cubes, mesh_checks, morphology,
+    predicates, self_intersection, signed_distance, smoothed_volume, spatial_hash,
+    triangle_intersection, winding_number,
 };
 
 pub use error::{Error, ErrorKind, Result};

@@ -9,8 +9,6 @@
 //! complement. The cost is the surface's voxel count times the ball's, not the grid's.
 //! Marking is idempotent, so the result does not depend on the order of the work.
 
-use rayon::prelude::*;
-
 /// Closes `mask` (i fastest, `dims`, spacing in mm) with a ball of `radius_mm`; returns the
 /// indices of the voxels it adds, ascending. The set must stay one ball's width away from the
 /// grid's faces (voxels beyond them count as outside), or it is closed against those faces.
@@ -63,158 +61,6 @@ pub fn erode(mask: &[bool], dims: [usize; 3], spacing: [f64; 3], radius_mm: f64)
         .zip(&near_outside)
         .map(|(&m, &o)| m && !o)
         .collect()
-}
-
-/// For each voxel of `mask`, its Euclidean distance (mm) to the nearest voxel outside it (0
-/// outside; a mask without outside voxels is as far as the grid is long). Exact, by
-/// Felzenszwalb and Huttenlocher's lower envelope of parabolas ("Distance transforms of sampled
-/// functions", 2012), one axis after the other with that axis's spacing; the lines of an axis
-/// are independent, so they run in parallel with the same result for any thread count.
-pub fn distance_to_outside(mask: &[bool], dims: [usize; 3], spacing: [f64; 3]) -> Vec<f64> {
-    let far = dims
-        .iter()
-        .zip(spacing)
-        .map(|(&n, s)| n as f64 * s)
-        .sum::<f64>()
-        .powi(2);
-    let [nx, ny, nz] = dims;
-    let mut squared: Vec<f64> = mask
-        .par_iter()
-        .map(|&m| if m { far } else { 0.0 })
-        .collect();
-    if squared.is_empty() {
-        return squared;
-    }
-    // Each line is transformed on its own, so any order gives the same values.
-    // Along x the lines are the rows.
-    squared.par_chunks_mut(nx).for_each_init(
-        || LowerEnvelope::with_capacity(nx),
-        |envelope, row| envelope.transform(row, spacing[0]),
-    );
-    // Along y, slab by slab: the lines of a slab are gathered row by row.
-    squared.par_chunks_mut(nx * ny).for_each_init(
-        || (LowerEnvelope::with_capacity(ny), vec![0.0; nx * ny]),
-        |(envelope, lines), slab| {
-            transform_strided_lines(envelope, slab, lines, nx, ny, spacing[1]);
-        },
-    );
-    // Along z, a row of lines at a time (all i for one j), gathered from every slab into a
-    // buffer, and scattered back slab by slab.
-    let columns: Vec<Vec<f64>> = (0..ny)
-        .into_par_iter()
-        .map_init(
-            || LowerEnvelope::with_capacity(nz),
-            |envelope, j| {
-                let mut lines = vec![0.0; nx * nz];
-                for k in 0..nz {
-                    let row = &squared[(k * ny + j) * nx..][..nx];
-                    for (i, &v) in row.iter().enumerate() {
-                        lines[i * nz + k] = v;
-                    }
-                }
-                for line in lines.chunks_mut(nz) {
-                    envelope.transform(line, spacing[2]);
-                }
-                lines
-            },
-        )
-        .collect();
-    squared
-        .par_chunks_mut(nx * ny)
-        .enumerate()
-        .for_each(|(k, slab)| {
-            for (j, lines) in columns.iter().enumerate() {
-                for (i, v) in slab[j * nx..][..nx].iter_mut().enumerate() {
-                    *v = lines[i * nz + k];
-                }
-            }
-        });
-    squared.into_par_iter().map(f64::sqrt).collect()
-}
-
-/// Transforms the `count` lines of `slab` that run across its rows of `width` voxels (the
-/// lines of a slab along y), gathered into `lines` (line after line) and scattered back.
-fn transform_strided_lines(
-    envelope: &mut LowerEnvelope,
-    slab: &mut [f64],
-    lines: &mut [f64],
-    width: usize,
-    count: usize,
-    spacing: f64,
-) {
-    for (t, row) in slab.chunks(width).enumerate() {
-        for (i, &v) in row.iter().enumerate() {
-            lines[i * count + t] = v;
-        }
-    }
-    for line in lines.chunks_mut(count) {
-        envelope.transform(line, spacing);
-    }
-    for (t, row) in slab.chunks_mut(width).enumerate() {
-        for (i, v) in row.iter_mut().enumerate() {
-            *v = lines[i * count + t];
-        }
-    }
-}
-
-/// The lower envelope of the parabolas `(x − q)² s² + f(q)` of one line (F&H's 1D pass).
-struct LowerEnvelope {
-    vertices: Vec<usize>,
-    bounds: Vec<f64>,
-    /// The line before the transform: its values at the envelope's vertices are read while
-    /// the line is overwritten.
-    original: Vec<f64>,
-}
-
-impl LowerEnvelope {
-    fn with_capacity(n: usize) -> Self {
-        LowerEnvelope {
-            vertices: Vec::with_capacity(n),
-            bounds: Vec::with_capacity(n + 1),
-            original: Vec::with_capacity(n),
-        }
-    }
-
-    /// Replaces `f` by `min_q (x − q)² s² + f(q)` for samples `spacing` apart.
-    fn transform(&mut self, f: &mut [f64], spacing: f64) {
-        // A line wholly outside stays so: most lines of a box around a vessel.
-        if f.iter().all(|&x| x == 0.0) {
-            return;
-        }
-        let s2 = spacing * spacing;
-        let (v, z, original) = (&mut self.vertices, &mut self.bounds, &mut self.original);
-        v.clear();
-        z.clear();
-        let meet = |q: usize, p: usize, f: &[f64]| {
-            ((f[q] + s2 * (q * q) as f64) - (f[p] + s2 * (p * p) as f64))
-                / (2.0 * s2 * (q as f64 - p as f64))
-        };
-        v.push(0);
-        z.push(f64::NEG_INFINITY);
-        z.push(f64::INFINITY);
-        for q in 1..f.len() {
-            let mut s = meet(q, v[v.len() - 1], f);
-            while s <= z[v.len() - 1] {
-                v.pop();
-                z.pop();
-                s = meet(q, v[v.len() - 1], f);
-            }
-            z.pop();
-            v.push(q);
-            z.push(s);
-            z.push(f64::INFINITY);
-        }
-        original.clear();
-        original.extend_from_slice(f);
-        let mut k = 0;
-        for (x, out) in f.iter_mut().enumerate() {
-            while z[k + 1] < x as f64 {
-                k += 1;
-            }
-            let d = x as f64 - v[k] as f64;
-            *out = s2 * d * d + original[v[k]];
-        }
-    }
 }
 
 /// The 6-connected components of `mask`: a label per voxel (`u32::MAX` outside the mask),
@@ -316,100 +162,15 @@ impl Grid {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    #[test]
-    fn distance_to_outside_is_exact_on_an_anisotropic_grid() {
-        // A box of 9 × 7 × 5 voxels inside a 13 × 11 × 9 grid, spacing 0.5 × 1 × 2 mm.
-        let dims = [13, 11, 9];
-        let spacing = [0.5, 1.0, 2.0];
-        let inside = |i: usize, j: usize, k: usize| {
-            (2..11).contains(&i) && (2..9).contains(&j) && (2..7).contains(&k)
-        };
-        let mask: Vec<bool> = (0..13 * 11 * 9)
-            .map(|n| inside(n % 13, n / 13 % 11, n / 143))
-            .collect();
-        let d = distance_to_outside(&mask, dims, spacing);
-        for (n, exact) in brute_force_distances(&mask, dims, spacing)
-            .into_iter()
-            .enumerate()
-        {
-            let (i, j, k) = (n % 13, n / 13 % 11, n / 143);
-            assert!(
-                (d[n] - exact).abs() < 1e-9,
-                "({i},{j},{k}): {} vs {exact}",
-                d[n]
-            );
-        }
-    }
-
-    /// Each voxel's distance to the nearest voxel outside `mask`, over every outside voxel.
-    fn brute_force_distances(mask: &[bool], dims: [usize; 3], spacing: [f64; 3]) -> Vec<f64> {
-        let position = |n: usize| {
-            let (i, j, k) = (n % dims[0], n / dims[0] % dims[1], n / (dims[0] * dims[1]));
-            [
-                i as f64 * spacing[0],
-                j as f64 * spacing[1],
-                k as f64 * spacing[2],
-            ]
-        };
-        (0..mask.len())
-            .map(|n| {
-                if !mask[n] {
-                    return 0.0;
-                }
-                let p = position(n);
-                (0..mask.len())
-                    .filter(|&o| !mask[o])
-                    .map(|o| {
-                        let q = position(o);
-                        ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2))
-                            .sqrt()
-                    })
-                    .fold(f64::INFINITY, f64::min)
-            })
-            .collect()
-    }
-
-    #[test]
-    fn distance_to_outside_of_a_scattered_mask_is_exact_and_the_same_on_any_thread_count() {
-        // Two overlapping balls and a few scattered voxels, in a grid whose sides differ, so
-        // that rows, slabs and columns all have lines inside and wholly outside.
-        let dims = [17, 12, 9];
-        let spacing = [0.7, 1.0, 1.9];
-        let mask = grid(
-            dims,
-            |[x, y, z]| {
-                let ball = |c: [f64; 3], r: f64| {
-                    (x - c[0]).powi(2) + (y - c[1]).powi(2) + (z - c[2]).powi(2) < r * r
-                };
-                ball([4.0, 5.0, 7.0], 3.5) || ball([7.5, 6.0, 8.0], 3.0)
-            },
-            spacing,
-        )
-        .into_iter()
-        .enumerate()
-        .map(|(n, m)| m || n % 97 == 5)
-        .collect::<Vec<_>>();
-        let in_pool = |threads| {
-            rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap()
-                .install(|| distance_to_outside(&mask, dims, spacing))
-        };
-        let d = in_pool(1);
-        assert_eq!(d, in_pool(2));
-        for (n, exact) in brute_force_distances(&mask, dims, spacing)
-            .into_iter()
-            .enumerate()
-        {
-            assert!((d[n] - exact).abs() < 1e-9, "{n}: {} vs {exact}", d[n]);
-        }
-    }
-
-    fn grid(dims: [usize; 3], inside: impl Fn([f64; 3]) -> bool, spacing: [f64; 3]) -> Vec<bool> {
+    /// A mask of the grid points (i fastest) at which `inside` holds, given in mm.
+    pub(crate) fn grid(
+        dims: [usize; 3],
+        inside: impl Fn([f64; 3]) -> bool,
+        spacing: [f64; 3],
+    ) -> Vec<bool> {
         let mut mask = Vec::new();
         for k in 0..dims[2] {
             for j in 0..dims[1] {

@@ -29,6 +29,7 @@ use crate::balloon::reparametrization::isosurface::{
     FreeDepth,
 };
 use crate::disjoint_sets::DisjointSets;
+use crate::distance_transform;
 use crate::error::Result;
 use crate::geometry::Geometry;
 use crate::mesh::TriMesh;
@@ -204,7 +205,7 @@ pub(in crate::balloon) fn find_basins(
     spacing: [f64; 3],
     radius: f64,
 ) -> (Vec<u32>, Vec<f64>) {
-    let depth = morphology::distance_to_outside(mask, dims, spacing);
+    let depth = distance_transform::distance_to_outside(mask, dims, spacing);
     let (lobes, thickness) = watershed(&depth, dims, radius, spacing[0]);
     // Each basin's core, the part deeper than its waists could be, grown back over the inside
     // (`grow_cores`).
