@@ -258,7 +258,7 @@ fn inflate_together(
 
 /// Settles the members' territories by the thick parts of their union (`partition`): the
 /// members whose surfaces it remade start again from them, frozen where they may not move on.
-/// Returns whether any basin changed hands.
+/// Returns whether any voxel changed hands.
 fn repartition_members(
     members: &mut [Member<'_, '_>],
     indexes: &mut [Arc<Obstacle>],

@@ -4,14 +4,21 @@
 //! holds is too small to be cut off as a leak (`finishing::touching`). The union of the objects
 //! does show the two tubes: split into the basins of its thick parts by the same watershed as
 //! the touching cut, each basin goes to the object whose seeds' basins it joins through the
-//! widest contacts (`claim_basins`).
+//! widest contacts (`claim_basins`). Voxels elsewhere stay with the object that holds them.
 //!
-//! Voxels elsewhere stay with the object that holds them. Every object's surface is then made
-//! again from its signed distance map with the voxels it gained moved inside and those it lost
-//! moved outside, on one isotropic grid of the smallest spacing; a voxel next to (26-connected)
-//! one of an object earlier in order goes to neither, so no marching-cubes cell holds the
-//! inside of two objects and the new surfaces cannot meet. Refinement then lets them grow back
-//! towards each other, up to the clearance.
+//! Where two claims meet, the boundary is drawn again by the power diagram of the balls
+//! inscribed in the union (`distance_transform::power_labels`): each voxel goes to the object
+//! of the ball of least power, which puts the boundary between two round structures in the
+//! plane through the rim of their contact — a vessel's end where it opens into a chamber,
+//! wherever the race left it. For that depth the gap the objects keep between them counts as
+//! inside (`between_objects`); seen as outside, it would make each side of a contact a surface
+//! of the union.
+//!
+//! Every object's surface is then made again from its signed distance map with the voxels it
+//! gained moved inside and those it lost moved outside, on one isotropic grid of the smallest
+//! spacing; a voxel next to (26-connected) one of an object earlier in order goes to neither,
+//! so no marching-cubes cell holds the inside of two objects and the new surfaces cannot meet.
+//! Refinement then lets them grow back towards each other, up to the clearance.
 
 use std::collections::HashMap;
 
@@ -24,6 +31,7 @@ use crate::balloon::reparametrization::isosurface::{
     covering_grid, isosurface, keep_seeded_components, without_cavities,
 };
 use crate::disjoint_sets::DisjointSets;
+use crate::distance_transform::{distance_to_outside, power_labels};
 use crate::error::Result;
 use crate::geometry::Geometry;
 use crate::mesh::TriMesh;
@@ -33,7 +41,11 @@ use crate::winding_number::inside_mask;
 
 const NOBODY: u32 = u32::MAX;
 
-/// The objects' new surfaces (world mm), if any basin changed hands; `meshes` and `seeds` are
+/// How far (voxels of the largest spacing) from two objects a voxel outside both may lie and
+/// still be the gap between them rather than the outside of their union.
+const GAP_VOXELS: f64 = 1.5;
+
+/// The objects' new surfaces (world mm), if any voxel changed hands; `meshes` and `seeds` are
 /// by object, in order, `radius` (mm) the smallest thickness of a part of its own.
 pub(super) fn repartition(
     meshes: &[TriMesh],
@@ -57,15 +69,27 @@ pub(super) fn repartition(
         }
     }
     let union: Vec<bool> = owner.iter().map(|&o| o != NOBODY).collect();
+    // The basins of the union as the balloons left it, their gap outside: with the gap closed,
+    // two tubes lying side by side read as one thick part, split along its length instead
+    // (touching-pair variant 0: Dice 0.58 for the thinner tube).
     let (basins, thickness) = find_basins(&union, dims, grid.spacing(), radius);
     let claimed = claim_basins(&basins, thickness.len(), seeds, &grid, dims);
-    let new_owner: Vec<u32> = owner
+    let claims: Vec<u32> = owner
         .iter()
         .zip(&basins)
         .map(|(&o, &b)| match claimed.get(b as usize) {
             Some(&k) if k != NOBODY && o != NOBODY => k,
             _ => o,
         })
+        .collect();
+    let gap = GAP_VOXELS * geometry.max_spacing();
+    let between = between_objects(meshes, &owner, dims, &grid, gap)?;
+    let closed: Vec<bool> = union.iter().zip(&between).map(|(&u, &b)| u || b).collect();
+    let depth = distance_to_outside(&closed, dims, grid.spacing());
+    let new_owner: Vec<u32> = power_labels(&depth, &claims, NOBODY, dims, grid.spacing())
+        .into_iter()
+        .zip(&union)
+        .map(|(o, &inside)| if inside { o } else { NOBODY })
         .collect();
     if new_owner == owner {
         return Ok(None);
@@ -93,6 +117,31 @@ pub(super) fn repartition(
         ));
     }
     Ok(Some(repartitioned))
+}
+
+/// The voxels outside every object but within `gap` (mm) of two of them: the space objects
+/// keep between them where they meet. Their union's depth must not take it for its outside,
+/// or each object's side of a contact would look like a surface of the union.
+fn between_objects(
+    meshes: &[TriMesh],
+    owner: &[u32],
+    dims: [usize; 3],
+    grid: &Geometry,
+    gap: f64,
+) -> Result<Vec<bool>> {
+    let band = SignedDistanceOptions {
+        band_voxels: (gap / grid.max_spacing()).max(1.0),
+    };
+    let mut near = vec![0u8; owner.len()];
+    for mesh in meshes {
+        let field = signed_distance_values(mesh, mesh, dims, grid, &band)?;
+        for ((count, &d), &o) in near.iter_mut().zip(&field).zip(owner) {
+            if o == NOBODY && d < gap {
+                *count = count.saturating_add(1);
+            }
+        }
+    }
+    Ok(near.into_iter().map(|count| count >= 2).collect())
 }
 
 /// The object each basin goes to (`NOBODY`: it stays as it is). A basin holding the seeds of
