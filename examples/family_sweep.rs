@@ -1,5 +1,8 @@
 //! The balloon on the phantom families (`phantom::Family`), from the seed alone with the
 //! default parameters, over random variants: how robust it is on scans it was never tuned on.
+//! A family whose other object nothing in the image separates from the seeded one
+//! (`Family::needs_competitor`) gets that object's deepest point as a stop seed, as a user
+//! would give it.
 //!
 //! `family_sweep [--family NAME] [--variants N] [--first K] [--threads N] [--save DIR]` runs
 //! variants K..K+N (default 0..20) of each family (or of one) and prints, as markdown, one row
@@ -16,7 +19,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use balloonseg::balloon::{BalloonParams, Segmenter};
+use balloonseg::balloon::{segment_objects, BalloonParams, ObjectSeeds, ObjectsRequest, Segmenter};
 use balloonseg::evaluation::overlap_with_shape;
 use balloonseg::phantom::{Family, Variant};
 use balloonseg::self_intersection::self_intersections;
@@ -254,7 +257,25 @@ fn segment(variant: &Variant, threads: usize) -> Result<(TriMesh, Scores)> {
         ..BalloonParams::default()
     };
     let start = Instant::now();
-    let (mesh, _) = Segmenter::new(variant.image.view(), params, variant.seed())?.segment()?;
+    let mesh = match variant.other_seed() {
+        Some(stop) if variant.family().needs_competitor() => {
+            let request = ObjectsRequest {
+                objects: vec![ObjectSeeds {
+                    label: 1,
+                    seeds: vec![variant.seed()],
+                }],
+                stops: vec![stop],
+                region: None,
+            };
+            let objects = segment_objects(variant.image.view(), params, &request, None)?;
+            objects.into_iter().next().expect("one object").mesh
+        }
+        _ => {
+            Segmenter::new(variant.image.view(), params, variant.seed())?
+                .segment()?
+                .0
+        }
+    };
     let seconds = start.elapsed().as_secs_f64();
     let report = mesh_checks::check(&mesh);
     let valid = report.is_valid_closed_surface() && self_intersections(&mesh).is_empty();

@@ -42,7 +42,7 @@ enum Command {
     Distance(distance::Args),
     /// Write a synthetic test volume: a shape (sphere, torus, double-torus, y-vessel,
     /// touching-tubes, fading-tube) or a variant of a family (ct-scene, thin-wall,
-    /// touching-pair, thin-vessels, stent).
+    /// touching-pair, thin-vessels, stent, vessel-chamber).
     Phantom(phantom::Args),
     /// Run on the built-in phantoms, no input needed; writes meshes and a report.
     Demo(demo::Args),

@@ -11,7 +11,7 @@ use serde_json::{json, Map, Value};
 #[derive(clap::Args)]
 pub struct Args {
     /// A shape (sphere, torus, double-torus, y-vessel, touching-tubes, fading-tube) or a family
-    /// (ct-scene, thin-wall, touching-pair, thin-vessels, stent).
+    /// (ct-scene, thin-wall, touching-pair, thin-vessels, stent, vessel-chamber).
     name: String,
     /// The family's variant number (default 0); every number gives another scene.
     #[arg(long)]

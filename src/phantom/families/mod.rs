@@ -8,7 +8,7 @@
 //! slices z ∈ U[s, 2.0] mm, a Gaussian PSF σ ∈ U[0, 0.6] mm before noise, and Gaussian noise
 //! σ ∈ U[0.05, 0.15] × the family's contrast (the seeded object's intensity minus the tissue
 //! right around it) — then its family's scene (`ct_scene`, `thin_wall`, `touching_pair`,
-//! `thin_vessels`, `stent`). The grid covers what matters with a margin of at least 6 mm and
+//! `thin_vessels`, `stent`, `vessel_chamber`). The grid covers what matters with a margin of at least 6 mm and
 //! holds at most `VOXEL_BUDGET` voxels; context around it (more of a neighbouring organ) is
 //! shown when the budget allows.
 //!
@@ -21,6 +21,7 @@ mod stent;
 mod thin_vessels;
 mod thin_wall;
 mod touching_pair;
+mod vessel_chamber;
 
 #[cfg(test)]
 mod tests;
@@ -52,6 +53,9 @@ pub enum Family {
     /// A contrast lumen lined by a stent's wire lattice, blooming under blur; int16 HU.
     /// Genus 0.
     Stent,
+    /// A vessel opening into a chamber as bright as it, with no wall between them: a family
+    /// for several objects, where one balloon fills both (`Family::needs_competitor`). Genus 0.
+    VesselChamber,
 }
 
 /// Voxels a variant may have at most (the tests run several).
@@ -64,12 +68,13 @@ const MARGIN: f64 = 6.0;
 const OTHER_SEED_STEP: f64 = 0.5;
 
 impl Family {
-    pub const ALL: [Family; 5] = [
+    pub const ALL: [Family; 6] = [
         Family::CtScene,
         Family::ThinWall,
         Family::TouchingPair,
         Family::ThinVessels,
         Family::Stent,
+        Family::VesselChamber,
     ];
 
     pub fn name(self) -> &'static str {
@@ -79,7 +84,14 @@ impl Family {
             Family::TouchingPair => "touching-pair",
             Family::ThinVessels => "thin-vessels",
             Family::Stent => "stent",
+            Family::VesselChamber => "vessel-chamber",
         }
+    }
+
+    /// Whether the seeded object can only be told from the other one by seeding that too (as a
+    /// competitor or an object of its own): nothing in the image separates them.
+    pub fn needs_competitor(self) -> bool {
+        self == Family::VesselChamber
     }
 
     pub fn from_name(name: &str) -> Result<Family> {
@@ -116,6 +128,7 @@ impl Family {
             Family::TouchingPair => Ok(touching_pair::compose(rng)),
             Family::ThinVessels => thin_vessels::compose(rng, scan),
             Family::Stent => stent::compose(rng),
+            Family::VesselChamber => Ok(vessel_chamber::compose(rng)),
         }
     }
 }

@@ -1,6 +1,8 @@
 //! Tests of the families: determinism, the truth against the rendering, seeds, the drawn
 //! geometry, topology and size.
 
+use glam::DQuat;
+
 use super::*;
 use crate::geometry::Geometry;
 use crate::marching_cubes::marching_cubes;
@@ -227,6 +229,41 @@ fn the_touching_pair_touches() {
     }
 }
 
+#[test]
+fn the_vessel_opens_into_the_chamber_on_the_opening_plane() {
+    for number in 0..30 {
+        let design = Design::new(Family::VesselChamber, number).unwrap();
+        let centre = DVec3::from_slice(&parameter(&design, "opening_centre"));
+        let normal = DVec3::from_slice(&parameter(&design, "opening_normal"));
+        let r = parameter(&design, "vessel_radius_mm")[0];
+        let across = normal.any_orthonormal_vector();
+        let (vessel, chamber) = (design.truth_layer, design.other_layer.unwrap());
+        // Just inside the opening's rim: beyond its plane the vessel, before it the chamber.
+        for turn in [0.0, 2.0, 4.0] {
+            let p = centre + 0.99 * r * (DQuat::from_axis_angle(normal, turn) * across);
+            let beyond = p + 0.2 * normal;
+            let before = p - 0.2 * normal;
+            assert!(
+                design.scene.visible(vessel, beyond) < 0.0,
+                "{number} {turn}"
+            );
+            assert!(
+                design.scene.visible(chamber, before) < 0.0,
+                "{number} {turn}"
+            );
+            assert!(
+                design.scene.visible(vessel, before) >= 0.0,
+                "{number} {turn}"
+            );
+        }
+        let intensities = [
+            parameter(&design, "first_intensity")[0],
+            parameter(&design, "second_intensity")[0],
+        ];
+        assert_eq!(intensities[0], intensities[1], "{number}");
+    }
+}
+
 /// Genus of marching cubes of the truth sampled on the variant's grid, one voxel wider on
 /// every side so that the surface closes.
 fn truth_genus(design: &Design) -> Option<i64> {
@@ -259,6 +296,7 @@ fn the_other_truths_have_genus_zero() {
         Family::ThinWall,
         Family::TouchingPair,
         Family::Stent,
+        Family::VesselChamber,
     ] {
         let design = Design::new(family, 2).unwrap();
         assert_eq!(design.genus, 0);
