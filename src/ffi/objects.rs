@@ -517,55 +517,31 @@ mod tests {
         }
         let objects = [seeds(1, &A)];
         let mut out = std::ptr::null_mut();
+        let out_ptr: *mut *mut BalloonObjects = &mut out;
         let volume = described(&voxels);
-        let status = unsafe {
-            balloon_segment_objects(
-                &volume,
-                std::ptr::null(),
-                std::ptr::null(),
-                1,
-                std::ptr::null(),
-                0,
-                std::ptr::null(),
-                None,
-                std::ptr::null_mut(),
-                &mut out,
-            )
-        };
-        assert_eq!(status, BalloonStatus::BALLOON_NULL_POINTER);
-        assert!(message().starts_with("objects is NULL"), "{}", message());
-        let status = unsafe {
-            balloon_segment_objects(
-                &volume,
-                std::ptr::null(),
-                objects.as_ptr(),
-                1,
-                std::ptr::null(),
-                2,
-                std::ptr::null(),
-                None,
-                std::ptr::null_mut(),
-                &mut out,
-            )
-        };
-        assert_eq!(status, BalloonStatus::BALLOON_NULL_POINTER);
-        assert!(message().starts_with("stops is NULL"), "{}", message());
-        let status = unsafe {
-            balloon_segment_objects(
-                &volume,
-                std::ptr::null(),
-                objects.as_ptr(),
-                1,
-                std::ptr::null(),
-                0,
-                std::ptr::null(),
-                None,
-                std::ptr::null_mut(),
-                std::ptr::null_mut(),
-            )
-        };
-        assert_eq!(status, BalloonStatus::BALLOON_NULL_POINTER);
-        assert!(message().starts_with("out is NULL"), "{}", message());
+        let nulls = [
+            (std::ptr::null(), 0, out_ptr, "objects is NULL"),
+            (objects.as_ptr(), 2, out_ptr, "stops is NULL"),
+            (objects.as_ptr(), 0, std::ptr::null_mut(), "out is NULL"),
+        ];
+        for (objects, stop_count, out, needle) in nulls {
+            let status = unsafe {
+                balloon_segment_objects(
+                    &volume,
+                    std::ptr::null(),
+                    objects,
+                    1,
+                    std::ptr::null(),
+                    stop_count,
+                    std::ptr::null(),
+                    None,
+                    std::ptr::null_mut(),
+                    out,
+                )
+            };
+            assert_eq!(status, BalloonStatus::BALLOON_NULL_POINTER, "{needle}");
+            assert!(message().starts_with(needle), "{}", message());
+        }
         let mut count = 0;
         assert_eq!(
             unsafe { balloon_objects_count(std::ptr::null(), &mut count) },
