@@ -27,7 +27,7 @@ use crate::balloon::image_model::region::Region;
 use crate::balloon::image_model::seed_statistics::{self, SeedStatistics};
 use crate::balloon::image_model::thin_layer;
 use crate::balloon::inflation::stepper::Scratch;
-use crate::balloon::inflation::FIRST_LEAK_CHECK;
+use crate::balloon::inflation::{Inflation, FIRST_LEAK_CHECK};
 use crate::balloon::objects::obstacle::Obstacle;
 use crate::balloon::params::BalloonParams;
 use crate::balloon::progress::{Phase, PhaseSeconds, ProgressCallback};
@@ -355,20 +355,27 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         self.finish(budget - used)
     }
 
+    /// After an inflation, with `budget` steps of `max_iterations` left: the contacts frozen,
+    /// and if there are any and re-parametrisations are left, the surface re-parametrised and
+    /// the refinement that must follow, to be run a step at a time.
+    pub(super) fn next_refinement(&mut self, budget: u32) -> Result<Option<Inflation>> {
+        self.freeze_self_intersections()?;
+        if !self.has_self_intersections()
+            || self.stats.reparametrizations >= self.params.max_reparametrizations
+        {
+            return Ok(None);
+        }
+        self.reparametrize()?;
+        let limit = budget.max(self.params.refinement_iterations);
+        Ok(Some(self.start_inflation(Phase::Refinement, limit)))
+    }
+
     /// What follows the first inflation, with `budget` steps of `max_iterations` left: contacts,
     /// re-parametrisation and refinement, the touching cut, fairing and validation.
     pub(super) fn finish(&mut self, mut budget: u32) -> Result<(TriMesh, Vec<VertexState>)> {
-        self.freeze_self_intersections()?;
-        while self.has_self_intersections()
-            && self.stats.reparametrizations < self.params.max_reparametrizations
-        {
-            self.reparametrize()?;
-            let used = self.inflate(
-                Phase::Refinement,
-                budget.max(self.params.refinement_iterations),
-            )?;
-            budget = budget.saturating_sub(used);
-            self.freeze_self_intersections()?;
+        while let Some(mut run) = self.next_refinement(budget)? {
+            while !self.continue_inflation(&mut run)? {}
+            budget = budget.saturating_sub(run.steps);
         }
         self.cut_touching(AfterReparametrization::Nothing)?;
         let earlier = self.fair();

@@ -209,13 +209,23 @@ fn compete(members: &mut [Member<'_, '_>]) -> Result<Vec<(TriMesh, Vec<VertexSta
         *index = Arc::new(members[j].segmenter.as_obstacle(reach, None));
     }
     for i in 0..members.len() {
-        let segmenter = &mut members[i].segmenter;
+        let Member { label, segmenter } = &mut members[i];
         segmenter.set_obstacles(others(&indexes, i), clearance);
         segmenter.keep_apart_from(indexes[..i].to_vec());
-        let left = segmenter.params().max_iterations - used[i];
-        let (mesh, states) = segmenter
-            .finish(left)
-            .map_err(|e| e.context(describe(members[i].label)))?;
+        let name = || describe(*label);
+        let mut left = segmenter.params().max_iterations.saturating_sub(used[i]);
+        // What those finished before it gave up (a part they cut off, a sliver their fairing
+        // freed) is free to grow into.
+        if i > 0 && segmenter.release_frozen() > 0 {
+            let limit = left.max(segmenter.params().refinement_iterations);
+            let mut run = segmenter.start_inflation(Phase::Refinement, limit);
+            while !segmenter
+                .continue_inflation(&mut run)
+                .map_err(|e| e.context(name()))?
+            {}
+            left = left.saturating_sub(run.steps);
+        }
+        let (mesh, states) = segmenter.finish(left).map_err(|e| e.context(name()))?;
         indexes[i] = Arc::new(Obstacle::of_mesh(&mesh, reach));
         results.push((mesh, states));
     }
@@ -224,7 +234,8 @@ fn compete(members: &mut [Member<'_, '_>]) -> Result<Vec<(TriMesh, Vec<VertexSta
 }
 
 /// All members with an inflation under way take a step each in turn, each against the others
-/// as they stand, until every inflation is over; `used` counts each member's steps.
+/// as they stand, until every inflation and the re-parametrisations and refinements after it
+/// are over; `used` counts each member's steps.
 fn inflate_together(
     members: &mut [Member<'_, '_>],
     runs: &mut [Option<Inflation>],
@@ -244,13 +255,26 @@ fn inflate_together(
                 .continue_inflation(run)
                 .map_err(|e| e.context(describe(*label)))?;
             if done {
-                // Whole: the others may grow anywhere around a surface that no longer moves.
-                indexes[i] = Arc::new(members[i].segmenter.as_obstacle(reach, None));
                 used[i] += run.steps;
-                runs[i] = None;
-            } else {
-                indexes[i] = index_near_others(members, i, reach);
+                let left = segmenter.params().max_iterations.saturating_sub(used[i]);
+                // Contacts are re-parametrised and refined here, beside the others, as a
+                // balloon alone does after its first inflation: a large structure does most of
+                // its growing in those refinements.
+                match segmenter
+                    .next_refinement(left)
+                    .map_err(|e| e.context(describe(*label)))?
+                {
+                    Some(next) => *run = next,
+                    None => {
+                        // Whole: the others may grow anywhere around a surface that no longer
+                        // moves.
+                        indexes[i] = Arc::new(members[i].segmenter.as_obstacle(reach, None));
+                        runs[i] = None;
+                        continue;
+                    }
+                }
             }
+            indexes[i] = index_near_others(members, i, reach);
         }
     }
     Ok(())
