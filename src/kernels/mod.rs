@@ -2,8 +2,8 @@
 //! cubes, self-intersection detection (with the exact triangle-pair test and the predicates under
 //! it), signed distance (with closest points and winding numbers), mesh checks, the Gaussian
 //! smoothing the balloon reads the image through, and the distance transforms, voxel morphology
-//! and digital topology the finishing steps use. The crate root re-exports them (`balloonseg::marching_cubes`, ...);
-//! this folder only keeps them together on disk.
+//! and digital topology the finishing steps use. The crate root re-exports them
+//! (`balloonseg::marching_cubes`, ...); this folder only keeps them together on disk.
 
 pub mod closest_point;
 pub mod digital_topology;

@@ -7,13 +7,15 @@
 //! re-parametrisation keeps its new surface out of them. Contacts between two objects never
 //! merge them.
 //!
-//! All objects inflate together, one step each in turn, in the order they were given, until
-//! each is at equilibrium. Then their territories are settled by the thick parts of their union
-//! (`partition`), each cuts off what it entered through a contact (`finishing::touching`), and
-//! all inflate together again into what was given to them or freed (`MAX_ROUNDS`). Then each in order goes through contacts, re-parametrisation,
-//! refinement, fairing and validation against the others as they stand (the final surfaces of
-//! those before it). Competitors (stop seeds) take part in all of it and are left out of the
-//! result: they keep an object from growing into the structure they fill.
+//! All objects grow together, one step each in turn, in the order they were given: the first
+//! inflation, and each re-parametrisation of contacts with itself and the refinement after it,
+//! until each is at equilibrium. Then their territories are settled by the thick parts of their
+//! union (`partition`), each cuts off what it entered through a contact (`finishing::touching`),
+//! and all grow together again into what was given to them or freed (`MAX_ROUNDS`). Then each
+//! in order is let grow into what those before it gave up, is cut, faired and validated against
+//! the others as they stand (the final surfaces of those before it). Competitors (stop seeds)
+//! take part in all of it and are left out of the result: they keep an object from growing into
+//! the structure they fill.
 //!
 //! One object without competitors is exactly [`Segmenter::segment`].
 

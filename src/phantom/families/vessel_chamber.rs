@@ -3,8 +3,9 @@
 //! chamber is a ball (radius R ∈ U[11, 18] mm; a sphere's distance is exact, so the partial
 //! volume of the vessel's end is too); the vessel a capsule of radius r ∈ U[2.5, 6] mm from the
 //! ball's centre, running L ∈ U[25, 40] mm beyond it. The vessel meets the chamber on a circle,
-//! in the plane across its axis at √(R² − r²) from the chamber's centre: the opening. The truth is the vessel
-//! outside the chamber, the other object the chamber; the seed is half way along the vessel.
+//! in the plane across its axis at √(R² − r²) from the chamber's centre: the opening. The truth
+//! is the vessel outside the chamber, the other object the chamber; the seed is half way along
+//! the vessel.
 
 use std::sync::Arc;
 
