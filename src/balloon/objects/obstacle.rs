@@ -220,9 +220,23 @@ pub(crate) fn crossings(mesh: &TriMesh, obstacles: &[Arc<Obstacle>]) -> Result<V
         return Ok(Vec::new());
     }
     let own = mesh.triangles().len();
+    // Only the others' triangles that reach into the mesh's box can meet it.
+    let (lo, hi) = mesh
+        .points()
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        });
+    let reaches_in = |[a, b, c]: &[DVec3; 3]| {
+        a.min(*b).min(*c).cmple(hi).all() && a.max(*b).max(*c).cmpge(lo).all()
+    };
     let mut points = mesh.points().to_vec();
     let mut triangles = mesh.triangles().to_vec();
-    for corners in obstacles.iter().flat_map(|o| o.triangles()) {
+    for corners in obstacles
+        .iter()
+        .flat_map(|o| o.triangles())
+        .filter(reaches_in)
+    {
         let first = points.len() as u32;
         points.extend(corners);
         triangles.push([first, first + 1, first + 2]);
