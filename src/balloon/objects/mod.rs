@@ -14,8 +14,8 @@
 //! and all grow together again into what was given to them or freed (`MAX_ROUNDS`). Then each
 //! in order is let grow into what those before it gave up, is cut, faired and validated against
 //! the others as they stand (the final surfaces of those before it). Competitors (stop seeds)
-//! take part in all of it and are left out of the result: they keep an object from growing into
-//! the structure they fill.
+//! grow with the objects and keep them from growing into the structure they fill; they come
+//! last in order and are not finished, as no object comes after them, nor returned.
 //!
 //! One object without competitors is exactly [`Segmenter::segment`].
 
@@ -159,8 +159,8 @@ fn describe(label: Option<u32>) -> String {
     }
 }
 
-/// The members inflate together, then finish one after the other (module docs); the final mesh
-/// and vertex states of each, in order.
+/// The members inflate together, then the objects finish one after the other (module docs);
+/// the final mesh and vertex states of each object, in order.
 fn compete(members: &mut [Member<'_, '_>]) -> Result<Vec<(TriMesh, Vec<VertexState>)>> {
     let geometry = *members[0].segmenter.volume_geometry();
     let clearance = CLEARANCE_VOXELS * geometry.min_spacing();
@@ -210,7 +210,9 @@ fn compete(members: &mut [Member<'_, '_>]) -> Result<Vec<(TriMesh, Vec<VertexSta
     for (j, index) in indexes.iter_mut().enumerate() {
         *index = Arc::new(members[j].segmenter.as_obstacle(reach, None));
     }
-    for i in 0..members.len() {
+    // Competitors come last: with every object final, their own finish would serve nobody.
+    let objects = members.iter().take_while(|m| m.label.is_some()).count();
+    for i in 0..objects {
         let Member { label, segmenter } = &mut members[i];
         segmenter.set_obstacles(others(&indexes, i), clearance);
         segmenter.keep_apart_from(indexes[..i].to_vec());
@@ -325,7 +327,9 @@ fn cut_touching_members(
     clearance: f64,
 ) -> Result<bool> {
     let mut cut = false;
-    for i in 0..members.len() {
+    // Competitors come last: with every object final, their own finish would serve nobody.
+    let objects = members.iter().take_while(|m| m.label.is_some()).count();
+    for i in 0..objects {
         let Member { label, segmenter } = &mut members[i];
         segmenter.set_obstacles(others(indexes, i), clearance);
         if segmenter
@@ -378,14 +382,15 @@ fn others(indexes: &[Arc<Obstacle>], i: usize) -> Vec<Arc<Obstacle>> {
 }
 
 /// No object's final surface meets another's: each was validated against those finished
-/// before it, and this checks every pair once more before anything is returned.
+/// before it, and this checks every pair once more before anything is returned. `results`
+/// are the objects', in order; the competitors after them are not finished.
 fn check_apart(
     members: &[Member<'_, '_>],
     results: &[(TriMesh, Vec<VertexState>)],
     indexes: &[Arc<Obstacle>],
 ) -> Result<()> {
-    for i in 0..members.len() {
-        for j in i + 1..members.len() {
+    for i in 0..results.len() {
+        for j in i + 1..results.len() {
             let crossing = crossings(&results[i].0, std::slice::from_ref(&indexes[j]))?;
             if !crossing.is_empty() {
                 return Err(Error::internal(format!(
