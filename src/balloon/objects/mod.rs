@@ -327,9 +327,7 @@ fn cut_touching_members(
     clearance: f64,
 ) -> Result<bool> {
     let mut cut = false;
-    // Competitors come last: with every object final, their own finish would serve nobody.
-    let objects = members.iter().take_while(|m| m.label.is_some()).count();
-    for i in 0..objects {
+    for i in 0..members.len() {
         let Member { label, segmenter } = &mut members[i];
         segmenter.set_obstacles(others(indexes, i), clearance);
         if segmenter
