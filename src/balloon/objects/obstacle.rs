@@ -28,6 +28,10 @@ use crate::self_intersection::self_intersections_among;
 /// enters about eight cells.
 const CELL_REACHES: f64 = 2.0;
 
+/// The grid's cells at most per triangle (and at least [`MIN_CELL_BUDGET`] cells allowed).
+const MAX_CELLS_PER_TRIANGLE: usize = 8;
+const MIN_CELL_BUDGET: usize = 4096;
+
 /// Distances within this share of the shortest, and of the coordinates (their rounding), tie.
 const TIE: f64 = 1e-9;
 
@@ -104,12 +108,23 @@ impl Obstacle {
                 (a.min(b).min(c) - grown, a.max(b).max(c) + grown)
             })
             .collect();
-        let size = CELL_REACHES * reach;
         let (lo, hi) = boxes
             .iter()
             .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), b| {
                 (lo.min(b.0), hi.max(b.1))
             });
+        // A surface spread thin over a large box would need more cells than it has triangles:
+        // larger cells keep the grid within a few words per triangle, at the cost of more
+        // triangles per cell for the bounding spheres to skip.
+        let cells_of_size = |size: f64| {
+            let span = (hi / size).floor() - (lo / size).floor() + 1.0;
+            span.x * span.y * span.z
+        };
+        let most = (MAX_CELLS_PER_TRIANGLE * triangles.len()).max(MIN_CELL_BUDGET) as f64;
+        let mut size = CELL_REACHES * reach;
+        while size.is_finite() && size > 0.0 && cells_of_size(size) > most {
+            size *= 2.0;
+        }
         let cells = if boxes.is_empty() {
             Cells {
                 size,
@@ -315,6 +330,21 @@ mod tests {
         }
         assert!(o.signed_distance(DVec3::new(1.0, 2.0, 3.0)).is_none());
         assert!(o.signed_distance(DVec3::new(1.0, 2.0, 11.0)).is_none());
+    }
+
+    #[test]
+    fn a_surface_spread_over_a_large_box_gets_larger_cells_not_a_huge_grid() {
+        // Two small triangles ten metres apart with a reach of half a millimetre: cells of
+        // the reach would number 10¹², which no machine holds.
+        let far = DVec3::splat(1e4);
+        let triangle = |o: DVec3| [o, o + DVec3::X, o + DVec3::Y];
+        let o = Obstacle::new([triangle(DVec3::ZERO), triangle(far)], 0.5);
+        assert!(o.cells.count() <= MIN_CELL_BUDGET, "{}", o.cells.count());
+        for base in [DVec3::ZERO, far] {
+            let d = o.signed_distance(base + DVec3::new(0.2, 0.2, 0.3)).unwrap();
+            assert!((d.abs() - 0.3).abs() < 1e-12, "{d}");
+        }
+        assert!(o.signed_distance(DVec3::splat(5e3)).is_none());
     }
 
     #[test]
