@@ -13,22 +13,29 @@ fn obstacle_of(mesh: &TriMesh, reach: f64) -> Arc<Obstacle> {
     Arc::new(Obstacle::of_mesh(mesh, reach))
 }
 
+/// `variant` with its seed as object 1 and its other object's deepest point as object 2.
+fn both_seeded(variant: &phantom::Variant) -> Vec<SegmentedObject> {
+    let request = ObjectsRequest {
+        objects: vec![
+            one(1, variant.seed()),
+            one(2, variant.other_seed().unwrap()),
+        ],
+        ..ObjectsRequest::default()
+    };
+    segment_objects(
+        variant.image.view(),
+        BalloonParams::default(),
+        &request,
+        None,
+    )
+    .unwrap()
+}
+
 #[test]
 fn two_touching_tubes_come_out_valid_apart_and_each_around_its_seed() {
     for number in [1, 6, 7] {
         let variant = Family::TouchingPair.variant(number).unwrap();
-        let seeds = [variant.seed(), variant.other_seed().unwrap()];
-        let request = ObjectsRequest {
-            objects: vec![one(1, seeds[0]), one(2, seeds[1])],
-            ..ObjectsRequest::default()
-        };
-        let objects = segment_objects(
-            variant.image.view(),
-            BalloonParams::default(),
-            &request,
-            None,
-        )
-        .unwrap();
+        let objects = both_seeded(&variant);
         assert_eq!(objects.iter().map(|o| o.label).collect::<Vec<_>>(), [1, 2]);
         let reach = 3.0 * variant.image.geometry().max_spacing();
         for (object, other) in [(&objects[0], &objects[1]), (&objects[1], &objects[0])] {
@@ -53,20 +60,7 @@ fn a_tube_one_object_cut_off_or_left_is_grown_into_by_the_other() {
     // the same after the first object's final cut, with the second finished in lockstep: 0.56.
     for number in [6, 7] {
         let variant = Family::TouchingPair.variant(number).unwrap();
-        let request = ObjectsRequest {
-            objects: vec![
-                one(1, variant.seed()),
-                one(2, variant.other_seed().unwrap()),
-            ],
-            ..ObjectsRequest::default()
-        };
-        let objects = segment_objects(
-            variant.image.view(),
-            BalloonParams::default(),
-            &request,
-            None,
-        )
-        .unwrap();
+        let objects = both_seeded(&variant);
         let step = 0.25 * variant.image.geometry().min_spacing();
         let second = crate::evaluation::overlap_with_shape(
             &objects[1].mesh,
@@ -226,20 +220,7 @@ fn a_vessel_seeded_beside_its_chamber_ends_at_the_opening() {
     // inside and the power diagram of its balls drew the boundary.
     for number in 0..8 {
         let variant = Family::VesselChamber.variant(number).unwrap();
-        let request = ObjectsRequest {
-            objects: vec![
-                one(1, variant.seed()),
-                one(2, variant.other_seed().unwrap()),
-            ],
-            ..ObjectsRequest::default()
-        };
-        let objects = segment_objects(
-            variant.image.view(),
-            BalloonParams::default(),
-            &request,
-            None,
-        )
-        .unwrap();
+        let objects = both_seeded(&variant);
         let voxel = variant.image.geometry().max_spacing();
         let end = end_beyond_opening(&variant, &objects[0].mesh);
         assert!(
