@@ -15,8 +15,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use balloonseg::balloon::{segment_objects, BalloonParams, ObjectSeeds, ObjectsRequest, Segmenter};
-use balloonseg::closest_point::Triangle;
-use balloonseg::evaluation::overlap_with_shape;
+use balloonseg::evaluation::{overlap_with_shape, widest_gap_at_contact};
 use balloonseg::phantom::{Family, Variant};
 use balloonseg::self_intersection::self_intersections;
 use balloonseg::{io, mesh_checks, Error, Result, TriMesh};
@@ -111,8 +110,12 @@ fn run() -> Result<()> {
             == self_intersections(a).len() + self_intersections(b).len();
         let voxel = variant.image.geometry().max_spacing();
         let other = variant.other().expect("a pair");
-        let gap = widest_gap(a, other, b, voxel).max(widest_gap(b, |p| variant.truth(p), a, voxel))
-            / voxel;
+        let gap = widest_gap_at_contact(a, other, b, 0.5 * voxel)?.max(widest_gap_at_contact(
+            b,
+            |p| variant.truth(p),
+            a,
+            0.5 * voxel,
+        )?) / voxel;
         if let Some(dir) = &save {
             io::write_image(&dir.join(format!("pair-{number}.nii.gz")), &variant.image)?;
             io::write_mesh(&dir.join(format!("pair-{number}-1.vtp")), a, &[])?;
@@ -148,33 +151,4 @@ fn score(
 ) -> Result<f64> {
     let step = 0.25 * variant.image.geometry().min_spacing();
     Ok(overlap_with_shape(mesh, truth, bounds, step)?.dice())
-}
-
-/// The largest distance (mm) from a vertex of `mesh` within half a voxel of the other capsule's
-/// surface (`other_capsule`, a signed distance) to `other_mesh`: 0 where they do not touch.
-fn widest_gap(
-    mesh: &TriMesh,
-    other_capsule: impl Fn(DVec3) -> f64,
-    other_mesh: &TriMesh,
-    voxel: f64,
-) -> f64 {
-    let triangles: Vec<Triangle> = other_mesh
-        .triangles()
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|v| other_mesh.points()[v as usize]);
-            Triangle::new(a, b, c)
-        })
-        .collect();
-    mesh.points()
-        .iter()
-        .filter(|&&p| other_capsule(p).abs() < 0.5 * voxel)
-        .map(|&p| {
-            triangles
-                .iter()
-                .map(|t| t.distance_squared(p))
-                .fold(f64::INFINITY, f64::min)
-                .sqrt()
-        })
-        .fold(0.0, f64::max)
 }

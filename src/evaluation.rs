@@ -419,6 +419,24 @@ pub fn symmetric_distances(
     })
 }
 
+/// The widest gap (mm) where two objects touch: the largest distance to `other_mesh` from a
+/// vertex of `mesh` within `band` mm of the other structure's true surface (`other_truth`, its
+/// signed distance); 0 where they do not touch.
+pub fn widest_gap_at_contact(
+    mesh: &TriMesh,
+    other_truth: impl Fn(DVec3) -> f64 + Sync,
+    other_mesh: &TriMesh,
+    band: f64,
+) -> Result<f64> {
+    let nearest = NearestTriangle::new(other_mesh)?;
+    Ok(mesh
+        .points()
+        .par_iter()
+        .filter(|&&p| other_truth(p).abs() < band)
+        .map(|&p| nearest.distance(p))
+        .reduce(|| 0.0, f64::max))
+}
+
 /// Four area-weighted sample points per triangle, those where `keep` holds.
 fn surface_samples(mesh: &TriMesh, keep: impl Fn(DVec3) -> bool) -> Vec<(DVec3, f64)> {
     let mut samples = Vec::with_capacity(4 * mesh.triangles().len());

@@ -24,6 +24,10 @@ use super::UNFAIR_ROUNDS;
 /// handle narrower than a voxel may be the vessel's own loop, which the grid breaks.
 const KEPT_VOLUME: f64 = 0.01;
 
+/// Rounds of moving the corners of triangles that cross another object's final surface out of
+/// it (`pushed_out_of_finished`), before the finishing steps are undone around them.
+const PUSH_ROUNDS: usize = 4;
+
 impl Segmenter<'_, '_> {
     /// The current mesh if it meets the guarantees, without the handles narrower than a voxel
     /// ([`Self::with_fewer_handles`]). Where the curvature offset, settling or fairing
@@ -45,11 +49,22 @@ impl Segmenter<'_, '_> {
             if repaired {
                 s.replace_by_isosurface(AfterReparametrization::Nothing)?;
             }
-            let mut unfair_rounds = 0;
+            let (mut unfair_rounds, mut push_rounds) = (0, 0);
             loop {
                 let (mesh, states) = s.mesh();
                 let report = mesh_checks::check(&mesh);
                 let pairs = s.contacts(&mesh)?;
+                let only_crossings = pairs.iter().all(|&(a, b)| a == b);
+                // Crossings alone are met where they are, before anything is undone for them.
+                if !pairs.is_empty() && only_crossings && push_rounds < PUSH_ROUNDS {
+                    push_rounds += 1;
+                    let crossing: Vec<u32> = pairs.iter().map(|&(t, _)| t).collect();
+                    let distance = push_rounds as f64 * s.image.clearance();
+                    if s.pushed_out_of_finished(&mesh, &crossing, distance)? {
+                        continue;
+                    }
+                    push_rounds = PUSH_ROUNDS;
+                }
                 if report.is_valid_closed_surface() && pairs.is_empty() {
                     let result = match report.genus() {
                         Some(genus) if genus > 0 && !repaired && report.components == 1 => s
@@ -75,7 +90,6 @@ impl Segmenter<'_, '_> {
                     }
                     continue;
                 }
-                let only_crossings = pairs.iter().all(|&(a, b)| a == b);
                 if repaired && only_crossings && s.image.widen_clearance() {
                     s.replace_by_isosurface(AfterReparametrization::Nothing)?;
                     continue;
@@ -95,6 +109,55 @@ impl Segmenter<'_, '_> {
                 repaired = true;
             }
         })
+    }
+
+    /// Moves the corners of the triangles `crossing` of `mesh` (the current surface), which
+    /// cross other objects' final surfaces, from the closest point of each such surface to the
+    /// clearance outside it. The move stays only if the surface is still closed, 2-manifold,
+    /// outward and free of self-intersections; returns whether it did.
+    fn pushed_out_of_finished(
+        &mut self,
+        mesh: &TriMesh,
+        crossing: &[u32],
+        clearance: f64,
+    ) -> Result<bool> {
+        // The mesh numbers the live slots densely, in slot order.
+        let slots: Vec<u32> = self.surface.live_vertices().collect();
+        let mut corners: Vec<u32> = crossing
+            .iter()
+            .flat_map(|&t| mesh.triangles()[t as usize])
+            .map(|v| slots[v as usize])
+            .collect();
+        corners.sort_unstable();
+        corners.dedup();
+        let before = self.surface.positions().to_vec();
+        for &v in &corners {
+            let mut p = before[v as usize];
+            for obstacle in &self.apart_from {
+                let Some((distance, closest)) = obstacle.nearest(p) else {
+                    continue;
+                };
+                let outward = if distance < 0.0 {
+                    closest - p
+                } else {
+                    p - closest
+                };
+                if let Some(n) = outward.try_normalize().filter(|_| distance < clearance) {
+                    p = closest + clearance * n;
+                }
+            }
+            self.surface.positions_mut()[v as usize] = p;
+        }
+        self.index_surface();
+        let (moved, _) = self.mesh();
+        if mesh_checks::check(&moved).is_valid_closed_surface()
+            && self.pool.install(|| self_intersections(&moved)).is_empty()
+        {
+            return Ok(true);
+        }
+        self.surface.positions_mut().copy_from_slice(&before);
+        self.index_surface();
+        Ok(false)
     }
 
     /// The pairs of triangles of `mesh` (the current surface) that intersect, and each that

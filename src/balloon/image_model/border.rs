@@ -217,6 +217,11 @@ impl<'v> ImageScales<'v> {
         self.clearance = clearance;
     }
 
+    /// The distance (mm) the balloon keeps from the other objects.
+    pub fn clearance(&self) -> f64 {
+        self.clearance
+    }
+
     /// Doubles the clearance from the other objects, up to [`WIDEST_CLEARANCE`] voxels;
     /// whether it could.
     pub fn widen_clearance(&mut self) -> bool {

@@ -184,6 +184,12 @@ impl Obstacle {
     /// The signed distance (mm, positive outside) from `x` to the surface, when `x` is within
     /// the reach of it.
     pub fn signed_distance(&self, x: DVec3) -> Option<f64> {
+        self.nearest(x).map(|(distance, _)| distance)
+    }
+
+    /// The signed distance (mm, positive outside) from `x` to the surface and the closest point
+    /// of it, when `x` is within the reach of it.
+    pub fn nearest(&self, x: DVec3) -> Option<(f64, DVec3)> {
         let id = self.cells.of(x)?;
         let near = &self.entries[self.starts[id] as usize..self.starts[id + 1] as usize];
         // A triangle whose sphere lies farther than the closest found so far (or the reach)
@@ -195,19 +201,17 @@ impl Obstacle {
             (x - centre).length_squared() <= within * within
         };
         let mut closest = self.reach;
-        let mut found = false;
+        let mut found = None;
         for &t in near {
             if could_reach(t, closest) {
                 let d = self.triangles[t as usize].distance_squared(x).sqrt();
                 if d <= closest {
                     closest = d;
-                    found = true;
+                    found = Some(t);
                 }
             }
         }
-        if !found {
-            return None;
-        }
+        let point = self.triangles[found? as usize].closest_point(x);
         let tie = closest + TIE * (closest + x.abs().max_element().max(1.0));
         let mut direction = 0.0;
         for &t in near {
@@ -224,7 +228,7 @@ impl Obstacle {
             }
             direction += corner_angle(triangle, c, tie) * normal.normalize().dot(x - c);
         }
-        Some(if direction < 0.0 { -closest } else { closest })
+        Some((if direction < 0.0 { -closest } else { closest }, point))
     }
 }
 
@@ -330,6 +334,30 @@ mod tests {
         }
         assert!(o.signed_distance(DVec3::new(1.0, 2.0, 3.0)).is_none());
         assert!(o.signed_distance(DVec3::new(1.0, 2.0, 11.0)).is_none());
+    }
+
+    #[test]
+    fn the_nearest_point_is_on_the_surface_at_the_signed_distance() {
+        let centre = DVec3::new(1.0, 2.0, 3.0);
+        let o = sphere(centre, 5.0);
+        for (direction, depth) in [
+            (DVec3::Y, 0.7),
+            (DVec3::new(1.0, -1.0, 2.0).normalize(), -0.6),
+        ] {
+            let x = centre + (5.0 + depth) * direction;
+            let (d, closest) = o.nearest(x).unwrap();
+            assert_eq!(Some(d), o.signed_distance(x));
+            assert!(
+                (d.abs() - (x - closest).length()).abs() < 1e-12,
+                "{d} {closest}"
+            );
+            assert!(((closest - centre).length() - 5.0).abs() < 0.1, "{closest}");
+            // Straight out from the centre, as the sphere's faces are nearly normal to it.
+            assert!(
+                (closest - centre).normalize().dot(direction) > 0.999,
+                "{closest}"
+            );
+        }
     }
 
     #[test]
