@@ -1,12 +1,15 @@
 //! NIfTI-1 single files (`.nii`, and `.nii.gz` — any gzip-compressed file is recognised by its
 //! magic bytes) reading and writing, with the geometry ITK's NiftiImageIO gives.
 //!
-//! Geometry: the sform when `sform_code > 0`, else the qform (quaternion, `qfac` from
-//! `pixdim[0]`, spacing from `pixdim`) when `qform_code > 0`; both map to NIfTI's RAS world and
-//! are turned into ITK's LPS by negating the first two rows of the affine. With neither, ITK
-//! gives spacing `pixdim`, origin 0 and the identity direction, and so do we. Unlike ITK, a
-//! sheared sform is kept as it is (non-orthogonal direction columns) rather than replaced by the
-//! qform.
+//! Geometry: the sform when `sform_code > 0` and the lengths of its columns are `pixdim`'s
+//! spacing, else the qform (quaternion, `qfac` from `pixdim[0]`, spacing from `pixdim`) when
+//! `qform_code > 0`; both map to NIfTI's RAS world and are turned into ITK's LPS by negating the
+//! first two rows of the affine. With neither, ITK gives spacing `pixdim`, origin 0 and the
+//! identity direction, and so do we. Unlike ITK, a sheared sform is kept as it is
+//! (non-orthogonal direction columns) rather than replaced by the qform. An sform whose scales
+//! are not `pixdim`'s (ITK warns "unexpected scales in sform") gives, as in ITK, `pixdim`'s
+//! spacing with its own origin and normalised columns when those are orthonormal, else the qform:
+//! a header that says 1e-9 mm along one axis in the sform and 1 mm in `pixdim` is 1 mm.
 //!
 //! Voxels: both byte orders (told apart by `sizeof_hdr`), datatypes uint8, int8, uint16, int16,
 //! uint32, int32, float32, float64; `dim[0]` from 1 to 7 with every size past the third equal
@@ -276,13 +279,25 @@ impl Header {
                 1.0
             }
         });
-        if self.sform_code > 0 {
-            let axes = std::array::from_fn(|a| {
+        let sform = (self.sform_code > 0).then(|| {
+            let axes: [[f64; 3]; 3] = std::array::from_fn(|a| {
                 ras_to_lps([self.srow[0][a], self.srow[1][a], self.srow[2][a]])
             });
             let origin = ras_to_lps([self.srow[0][3], self.srow[1][3], self.srow[2][3]]);
-            geometry_from_axes(axes, origin)
-        } else if self.qform_code > 0 {
+            (axes, origin)
+        });
+        if let Some((axes, origin)) = sform {
+            let lengths = axes.map(|v| DVec3::from_array(v).length());
+            if (0..3).all(|a| (lengths[a] - spacing[a]).abs() <= SFORM_SCALE_TOLERANCE) {
+                return geometry_from_axes(axes, origin);
+            }
+            // "Unexpected scales in sform": ITK keeps pixdim's spacing, and the sform's
+            // direction only when its columns, normalised, are orthonormal.
+            if let Some(direction) = orthonormal_columns(axes) {
+                return geometry(spacing, origin, direction);
+            }
+        }
+        if self.qform_code > 0 {
             let r = quaternion_to_rotation(self.quatern);
             let qfac = if self.pixdim[0] < 0.0 { -1.0 } else { 1.0 };
             let scale = DVec3::new(spacing[0], spacing[1], spacing[2] * qfac);
@@ -308,6 +323,23 @@ fn datatype_name(code: i16) -> &'static str {
         2304 => "RGBA32",
         _ => "unknown",
     }
+}
+
+/// How far (mm) the length of an sform column may be from `pixdim` for the sform to be taken
+/// as it is: ITK's tolerance, as the sform is stored in float32.
+const SFORM_SCALE_TOLERANCE: f64 = 1e-3;
+
+/// The direction matrix (row-major) of the columns `axes` normalised, when they are finite,
+/// non-zero and orthonormal within ITK's tolerance (1e-4).
+fn orthonormal_columns(axes: [[f64; 3]; 3]) -> Option<[f64; 9]> {
+    let columns = axes.map(|v| DVec3::from_array(v).try_normalize());
+    let [x, y, z] = [columns[0]?, columns[1]?, columns[2]?];
+    let m = DMat3::from_cols(x, y, z);
+    let off = (m * m.transpose() - DMat3::IDENTITY).to_cols_array();
+    if off.iter().any(|e| e.abs() > 1e-4) {
+        return None;
+    }
+    Some(m.transpose().to_cols_array())
 }
 
 /// NIfTI's RAS world to ITK's LPS (and back: the map is its own inverse).
@@ -482,7 +514,10 @@ fn encode(image: &Image, little_endian: bool) -> Result<Vec<u8>> {
     w.i16(70, datatype);
     w.i16(72, 8 * scalar.size_in_bytes() as i16);
     let qfac = qform.map_or(1.0, |(_, qfac)| qfac);
-    let s = g.spacing();
+    // The lengths of the sform's columns: the spacing, unless the direction's columns are not
+    // unit vectors (a sheared direction may come that way), which readers would otherwise take
+    // for an sform with unexpected scales.
+    let s = [affine.x_axis, affine.y_axis, affine.z_axis].map(|c| c.length());
     w.f32s(76, &[qfac, s[0], s[1], s[2], 1.0, 1.0, 1.0, 1.0]);
     w.f32s(108, &[DATA_OFFSET as f64, 1.0, 0.0]);
     w.bytes[123] = UNITS_MM;
@@ -596,6 +631,25 @@ mod tests {
             .iter()
             .zip(&actual)
             .all(|(e, a)| (e - a).abs() < 1e-6));
+    }
+
+    #[test]
+    fn an_sform_whose_scales_are_not_pixdim_gives_pixdim_as_itk_does() {
+        // ITK warns "unexpected scales in sform" and keeps pixdim's spacing, with the sform's
+        // origin and normalised columns when they are orthonormal, else the qform.
+        let image = pattern_image(ScalarType::U8, [2, 2, 2], oblique_geometry(), 7);
+        let mut file = encode(&image, true).unwrap();
+        for row in 0..3 {
+            let at = 280 + 16 * row + 8;
+            let v = f32::from_le_bytes(file[at..at + 4].try_into().unwrap());
+            set_f32(&mut file, at, v * 1e-9);
+        }
+        let g = *decode(&file).unwrap().geometry();
+        assert_geometry_close(&g, image.geometry(), FLOAT32_ROUNDING);
+        // Sheared as well: the qform (the same geometry here).
+        set_f32(&mut file, 280 + 4, 0.7);
+        let g = *decode(&file).unwrap().geometry();
+        assert_geometry_close(&g, image.geometry(), FLOAT32_ROUNDING);
     }
 
     #[test]

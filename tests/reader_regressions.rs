@@ -1,0 +1,64 @@
+//! Files from `tests/regressions/` that once broke the product (issue 19), each pinned down by
+//! a test named after what broke. They are small: the torus phantom written as NIfTI-1 by
+//! SimpleITK with a few header bytes changed (see `../shared/regressions/README.md`).
+
+#![cfg(feature = "io")]
+
+use std::path::PathBuf;
+
+use balloonseg::balloon::{BalloonParams, Segmenter};
+use balloonseg::{io, mesh_checks};
+use glam::DVec3;
+
+fn regression(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/regressions")
+        .join(name)
+}
+
+/// Reads `name`, checks the geometry SimpleITK 2.x gives for it, and segments it from voxel
+/// (20, 20, 10) for three steps as `segment --max-iterations 3` did when it broke.
+fn reads_as_itk_and_segments(name: &str, origin: [f64; 3], direction: [f64; 9]) {
+    let image = io::read_image(&regression(name)).unwrap();
+    let geometry = image.geometry();
+    assert_eq!(image.dims(), [45, 45, 21]);
+    assert_eq!(geometry.spacing(), [1.0; 3], "pixdim's spacing, as ITK");
+    for (ours, itk) in geometry.origin().iter().zip(origin) {
+        assert!((ours - itk).abs() < 1e-4, "{:?}", geometry.origin());
+    }
+    for (ours, itk) in geometry.direction().iter().zip(direction) {
+        assert!((ours - itk).abs() < 1e-6, "{:?}", geometry.direction());
+    }
+    let params = BalloonParams {
+        max_iterations: 3,
+        ..BalloonParams::default()
+    };
+    let seed = geometry.index_to_world(DVec3::new(20.0, 20.0, 10.0));
+    let mut segmenter = Segmenter::new(image.view(), params, seed).unwrap();
+    let (mesh, _) = segmenter.segment().unwrap();
+    assert!(mesh_checks::check(&mesh).is_valid_closed_surface());
+}
+
+#[test]
+fn an_sform_scale_of_1e_minus_9_is_not_a_4_gib_grid() {
+    // The sform's third column was 9.3e-10 mm long, pixdim 1: the balloon's grids of the
+    // smallest spacing asked for 4 GiB and the process aborted.
+    let identity = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    reads_as_itk_and_segments(
+        "nifti-sform-4gib-allocation.nii.gz",
+        [-22.0, -22.0, -10.0],
+        identity,
+    );
+}
+
+#[test]
+fn an_sform_scale_of_2e_minus_4_is_not_a_hang() {
+    // The sform's first column was 2.4e-4 mm long, pixdim 1: segment ran for minutes. ITK
+    // keeps the column's direction, flipped in LPS.
+    let flipped_x = [-1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+    reads_as_itk_and_segments(
+        "nifti-sform-scales-hang.nii.gz",
+        [-22.000_108_718_872_07, -22.0, -10.0],
+        flipped_x,
+    );
+}
