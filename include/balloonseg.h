@@ -102,7 +102,9 @@ typedef struct BalloonVolume {
   size_t dims[3];
   // Distance in ELEMENTS (not bytes) between neighbours along i, j, k.
   ptrdiff_t strides[3];
-  // Voxel size in mm, each > 0.
+  // Voxel size in mm, each > 0. Segmentation refuses voxels more than 100 times longer
+  // along one axis than another (BALLOON_INVALID_VOLUME): the balloon's grids have the
+  // shortest spacing, and would have no useful bound.
   double spacing[3];
   // World position (mm) of voxel (0, 0, 0).
   double origin[3];
@@ -155,6 +157,8 @@ typedef struct BalloonParams {
   size_t struct_size;
   double reference_intensity;
   double tolerance;
+  // From half the volume's shortest spacing to ten times its longest, or NaN for the mean
+  // spacing; outside that, segmentation is BALLOON_INVALID_ARGUMENT.
   double edge_length_mm;
   double elastic_weight;
   double bending_weight;

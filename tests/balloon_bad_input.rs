@@ -4,7 +4,7 @@
 use balloonseg::balloon::{BalloonParams, Segmenter};
 use balloonseg::phantom::{self, Phantom, PhantomOptions, Shape};
 use balloonseg::self_intersection::self_intersections;
-use balloonseg::{mesh_checks, ErrorKind, Image, TriMesh, VoxelBuffer};
+use balloonseg::{mesh_checks, ErrorKind, Geometry, Image, TriMesh, VoxelBuffer};
 use glam::DVec3;
 
 fn sphere() -> Phantom {
@@ -146,4 +146,43 @@ fn nan_voxels_near_the_seed_are_outside_and_at_the_seed_an_error() {
 
 fn sphere_volume() -> f64 {
     4.0 / 3.0 * std::f64::consts::PI * 1000.0
+}
+
+#[test]
+fn voxels_a_hundred_times_longer_one_way_are_an_invalid_volume_naming_the_spacing() {
+    // A header that says 1e-9 mm along one axis made the balloon's grids of the smallest
+    // spacing ask for gigabytes (issue 19).
+    let p = sphere();
+    for spacing in [[1.0, 1.0, 1e-9], [1.0, 1000.0, 1.0]] {
+        let g = p.image.geometry();
+        let geometry = Geometry::new(spacing, g.origin(), g.direction()).unwrap();
+        let image = Image::new(p.image.buffer().clone(), p.image.dims(), geometry).unwrap();
+        let seed = geometry.index_to_world(DVec3::new(10.0, 10.0, 10.0));
+        let e = Segmenter::new(image.view(), BalloonParams::default(), seed)
+            .err()
+            .unwrap();
+        assert_eq!(e.kind(), ErrorKind::InvalidVolume, "{e}");
+        assert!(e.message().contains("times longer"), "{e}");
+    }
+}
+
+#[test]
+fn an_edge_length_far_from_the_voxel_size_is_refused_naming_the_range() {
+    // 1000 mm on the aorta grew until the machine ran out of memory; 0.01 mm ran for minutes
+    // without nearing the vertex limit (issue 19).
+    let p = sphere();
+    for edge in [1000.0, 0.01] {
+        let params = BalloonParams {
+            edge_length: Some(edge),
+            ..BalloonParams::default()
+        };
+        let e = Segmenter::new(p.image.view(), params, p.seed_world())
+            .err()
+            .unwrap();
+        assert_eq!(e.kind(), ErrorKind::InvalidArgument, "{e}");
+        assert!(
+            e.message().contains("edge_length_mm") && e.message().contains(".."),
+            "{e}"
+        );
+    }
 }

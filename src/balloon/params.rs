@@ -116,7 +116,8 @@ pub const PARAMETERS: &[Parameter] = &[
         min: Excluded(0.0),
         max: Unbounded,
         unset: Some("the mean voxel spacing"),
-        doc: "Target length of the balloon's edges, in mm.",
+        doc: "Target length of the balloon's edges, in mm: from half the shortest voxel \
+              spacing to ten times the longest.",
         get: |p| p.edge_length,
         set: |p, v| p.edge_length = given(v),
     },

@@ -40,6 +40,18 @@ use crate::volume::Volume;
 
 /// The smallest local step that is an edge, as a share of the structure's contrast and in σ
 /// of the image inside the structure at the scale of local steps (its texture).
+/// The largest ratio of the longest voxel spacing to the shortest. The balloon's grids (its
+/// re-parametrisation, the touching cut, the objects' repartition) have the shortest spacing
+/// over the balloon's box, so their size grows with the square of the ratio; scans stay within
+/// about 20 (0.3 mm pixels on 6 mm slices).
+pub const MAX_ANISOTROPY: f64 = 100.0;
+
+/// The edge length's range, in voxel spacings: at least this share of the shortest spacing, at
+/// most this many of the longest. Below, the balloon needs the square of the ratio more
+/// vertices and steps to fill the same structure; above, its triangles span structures it
+/// cannot see.
+pub const EDGE_LENGTH_SPACINGS: (f64, f64) = (0.5, 10.0);
+
 const LOCAL_STEP_SHARE: f64 = 0.25;
 const LOCAL_STEP_TEXTURE: f64 = 5.0;
 /// The smallest dip of a thin dark wall, as a share of a local step and in σ of the texture.
@@ -98,6 +110,34 @@ pub struct SegmentationStats {
     pub seconds: PhaseSeconds,
 }
 
+/// Refuses a volume whose spacing, or an edge length whose size, would make the balloon's work
+/// unbounded (see [`MAX_ANISOTROPY`] and [`EDGE_LENGTH_SPACINGS`]).
+fn check_scales(geometry: &Geometry, edge_length: f64) -> Result<()> {
+    let (shortest, longest) = (geometry.min_spacing(), geometry.max_spacing());
+    if longest > MAX_ANISOTROPY * shortest {
+        return Err(Error::invalid_volume(format!(
+            "the voxel spacing {:?} mm is {:.3e} times longer along one axis than along \
+             another; the balloon handles at most {MAX_ANISOTROPY}: check the header's \
+             spacing, or resample the volume",
+            geometry.spacing(),
+            longest / shortest
+        )));
+    }
+    let (least, most) = (
+        EDGE_LENGTH_SPACINGS.0 * shortest,
+        EDGE_LENGTH_SPACINGS.1 * longest,
+    );
+    if !(least..=most).contains(&edge_length) {
+        return Err(Error::invalid_argument(format!(
+            "edge_length_mm is {edge_length}, outside {least}..{most} mm for voxels of \
+             {shortest} to {longest} mm ({} of the shortest spacing to {} of the longest); \
+             give a length in that range, or leave it unset for the mean spacing",
+            EDGE_LENGTH_SPACINGS.0, EDGE_LENGTH_SPACINGS.1
+        )));
+    }
+    Ok(())
+}
+
 impl SegmentationStats {
     /// The display window (lo, hi) of a picture of the result, from the model of a bright
     /// structure: its intensity window below the reference, and as much again below for the
@@ -146,6 +186,8 @@ impl<'v, 'p> Segmenter<'v, 'p> {
             .build()
             .map_err(|e| Error::invalid_argument(format!("cannot start the threads: {e}")))?;
         let geometry = *volume.geometry();
+        let edge_length = params.edge_length.unwrap_or(geometry.mean_spacing());
+        check_scales(&geometry, edge_length)?;
         let image = ImageScales::new(volume);
         let estimate = match params.tolerance {
             Some(_) if params.reference.is_some() => None,
@@ -168,7 +210,6 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                 .install(|| seed_statistics::edge_strength(&image, seed, &window))
                 .unwrap_or(0.0),
         };
-        let edge_length = params.edge_length.unwrap_or(geometry.mean_spacing());
         let step = local_step(&window, estimate.as_ref());
         let in_hounsfield_units = hounsfield::is_ct(&volume);
         let mut segmenter = Segmenter {

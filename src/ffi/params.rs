@@ -20,6 +20,8 @@ pub struct BalloonParams {
     pub struct_size: usize,
     pub reference_intensity: f64,
     pub tolerance: f64,
+    /// From half the volume's shortest spacing to ten times its longest, or NaN for the mean
+    /// spacing; outside that, segmentation is BALLOON_INVALID_ARGUMENT.
     pub edge_length_mm: f64,
     pub elastic_weight: f64,
     pub bending_weight: f64,

@@ -40,7 +40,9 @@ pub struct BalloonVolume {
     pub dims: [usize; 3],
     /// Distance in ELEMENTS (not bytes) between neighbours along i, j, k.
     pub strides: [isize; 3],
-    /// Voxel size in mm, each > 0.
+    /// Voxel size in mm, each > 0. Segmentation refuses voxels more than 100 times longer
+    /// along one axis than another (BALLOON_INVALID_VOLUME): the balloon's grids have the
+    /// shortest spacing, and would have no useful bound.
     pub spacing: [f64; 3],
     /// World position (mm) of voxel (0, 0, 0).
     pub origin: [f64; 3],
