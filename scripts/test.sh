@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Every test of the project, on a fresh machine: installs what it needs (Debian packages when
-# run as root, a Python venv in .venv), then lint, Rust tests, the C ABI under sanitizers, the
-# CMake package with its C++ tests, benchmark builds, the peer comparisons against VTK, CGAL and
-# libigl, and the Python package.
+# run as root, a Python venv in .venv), then lint, Rust tests, a short run of each fuzz target,
+# the C ABI under sanitizers, the CMake package with its C++ tests, benchmark builds, the peer
+# comparisons against VTK, CGAL and libigl, and the Python package.
 #
 # Real scans are read from $BALLOONSEG_DATA (default: ../shared/data). When they are absent the
 # tests that need them say SKIPPED loudly; with CI=true they fail instead.
@@ -40,6 +40,11 @@ cargo clippy --workspace --all-targets --all-features --locked -- -D warnings
 
 step "Rust tests"
 cargo test --workspace --all-features --locked --release
+
+step "fuzz targets, 15 s each (scripts/fuzz.sh; longer runs in docs/fuzzing.md)"
+for target in volume_readers mesh_readers segment c_abi; do
+  bash scripts/fuzz.sh "$target" 15
+done
 
 step "C ABI: C and C++ tests under AddressSanitizer and valgrind"
 bash scripts/test_c_api.sh
