@@ -186,3 +186,25 @@ fn an_edge_length_far_from_the_voxel_size_is_refused_naming_the_range() {
         );
     }
 }
+
+#[test]
+fn a_direction_with_long_or_nearly_coplanar_columns_is_an_invalid_volume() {
+    // Found by fuzzing the C ABI: a direction column 1e9 long passed every spacing check and
+    // the seed's intensity profiles asked for a 94 GB smoothing kernel.
+    let p = sphere();
+    let g = p.image.geometry();
+    let long_column = [0.0, 0.0, 1e9, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+    // The k axis 3° from the i axis.
+    let (s, c) = 0.05f64.sin_cos();
+    let coplanar = [1.0, 0.0, c, 0.0, 1.0, 0.0, 0.0, 0.0, s];
+    for (direction, says) in [(long_column, "unit"), (coplanar, "coplanar")] {
+        let geometry = Geometry::new(g.spacing(), g.origin(), direction).unwrap();
+        let image = Image::new(p.image.buffer().clone(), p.image.dims(), geometry).unwrap();
+        let seed = geometry.index_to_world(DVec3::new(10.0, 10.0, 10.0));
+        let e = Segmenter::new(image.view(), BalloonParams::default(), seed)
+            .err()
+            .unwrap();
+        assert_eq!(e.kind(), ErrorKind::InvalidVolume, "{e}");
+        assert!(e.message().contains(says), "{e}");
+    }
+}

@@ -52,6 +52,14 @@ pub const MAX_ANISOTROPY: f64 = 100.0;
 /// cannot see.
 pub const EDGE_LENGTH_SPACINGS: (f64, f64) = (0.5, 10.0);
 
+/// How far from 1 the length of a direction column may be (float32 headers round to 1e-7).
+const UNIT_DIRECTION: f64 = 1e-3;
+
+/// The least volume the unit voxel axes may span, against a cube's: below, a world box maps to
+/// an index box that many times longer, and so do the balloon's grids. A gantry tilted by 30°
+/// spans 0.87.
+const MIN_AXES_SINE: f64 = 0.1;
+
 const LOCAL_STEP_SHARE: f64 = 0.25;
 const LOCAL_STEP_TEXTURE: f64 = 5.0;
 /// The smallest dip of a thin dark wall, as a share of a local step and in σ of the texture.
@@ -113,6 +121,28 @@ pub struct SegmentationStats {
 /// Refuses a volume whose spacing, or an edge length whose size, would make the balloon's work
 /// unbounded (see [`MAX_ANISOTROPY`] and [`EDGE_LENGTH_SPACINGS`]).
 fn check_scales(geometry: &Geometry, edge_length: f64) -> Result<()> {
+    // The balloon reads the voxel size from the spacing: a direction column of another length
+    // would scale the grid behind its back.
+    let m = geometry.index_to_world_matrix();
+    let steps = [m.x_axis, m.y_axis, m.z_axis].map(|c| c.length());
+    let spacing = geometry.spacing();
+    if let Some(a) = (0..3).find(|&a| (steps[a] / spacing[a] - 1.0).abs() > UNIT_DIRECTION) {
+        return Err(Error::invalid_volume(format!(
+            "column {a} of the direction matrix {:?} has length {}; the columns must be unit \
+             vectors, with the voxel size in the spacing",
+            geometry.direction(),
+            steps[a] / spacing[a]
+        )));
+    }
+    let sine = m.determinant().abs() / steps.iter().product::<f64>();
+    if sine < MIN_AXES_SINE {
+        return Err(Error::invalid_volume(format!(
+            "the voxel axes of the direction matrix {:?} are nearly coplanar (the volume they \
+             span is {sine:.2e} of a cube's); the balloon needs them at least {MIN_AXES_SINE} \
+             apart: check the direction, or resample the volume",
+            geometry.direction()
+        )));
+    }
     let (shortest, longest) = (geometry.min_spacing(), geometry.max_spacing());
     if longest > MAX_ANISOTROPY * shortest {
         return Err(Error::invalid_volume(format!(
