@@ -507,11 +507,62 @@ mod tests {
             })
     }
 
+    /// A point of `float_mesh`: anywhere, or an earlier point (by index, modulo) moved by a
+    /// small multiple of 10^-exponent of its size, zero included.
+    #[derive(Debug, Clone)]
+    enum PointRecipe {
+        Anywhere([f64; 3]),
+        Near(usize, [i8; 3], i32),
+    }
+
+    /// Small meshes with arbitrary coordinates, at any scale and far from the origin, with
+    /// triangles from slivers across the whole mesh to ones a few ulps wide and points that
+    /// repeat or nearly repeat others: where the single-precision boxes and the cells of the
+    /// spatial hash have rounding to get wrong, which integer meshes never reach.
+    fn float_mesh() -> impl Strategy<Value = TriMesh> {
+        let recipe = prop_oneof![
+            [-2.0f64..2.0, -2.0..2.0, -2.0..2.0].prop_map(PointRecipe::Anywhere),
+            (any::<usize>(), [-2i8..=2, -2..=2, -2..=2], 1i32..=16)
+                .prop_map(|(i, step, exponent)| PointRecipe::Near(i, step, exponent)),
+        ];
+        (
+            proptest::collection::vec(recipe, 3..24),
+            proptest::collection::vec([0u32..24, 0u32..24, 0u32..24], 1..40),
+            -3i32..=3,
+            [-1e4f64..1e4, -1e4..1e4, -1e4..1e4],
+        )
+            .prop_map(|(recipes, triangles, scale, offset)| {
+                let (scale, offset) = (10f64.powi(scale), DVec3::from_array(offset));
+                let mut points: Vec<DVec3> = Vec::with_capacity(recipes.len());
+                for recipe in recipes {
+                    let p = match recipe {
+                        PointRecipe::Near(i, step, exponent) if !points.is_empty() => {
+                            let base = points[i % points.len()];
+                            let size = base.abs().max_element().max(scale);
+                            let step = DVec3::new(step[0].into(), step[1].into(), step[2].into());
+                            base + step * size * 10f64.powi(-exponent)
+                        }
+                        PointRecipe::Near(..) => offset,
+                        PointRecipe::Anywhere(p) => offset + DVec3::from_array(p) * scale,
+                    };
+                    points.push(p);
+                }
+                let n = points.len() as u32;
+                let triangles = triangles.iter().map(|t| t.map(|v| v % n)).collect();
+                TriMesh::new(points, triangles).unwrap()
+            })
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(2000))]
 
         #[test]
         fn spatial_hash_finds_what_brute_force_finds(m in small_mesh()) {
+            prop_assert_eq!(self_intersections(&m), brute_force(&m));
+        }
+
+        #[test]
+        fn spatial_hash_finds_what_brute_force_finds_at_any_coordinates(m in float_mesh()) {
             prop_assert_eq!(self_intersections(&m), brute_force(&m));
         }
     }

@@ -393,6 +393,8 @@ mod tests {
     use crate::mesh::test_shapes::{cube, icosphere, torus};
     use crate::winding_number::inside_mask;
     use crate::winding_number::test_fixtures::*;
+    use proptest::prelude::*;
+    use std::f64::consts::TAU;
 
     fn values(image: &Image) -> &[f64] {
         match image.buffer() {
@@ -678,6 +680,108 @@ mod tests {
         }
         let e = signed_distance(&mesh, &mesh, [4, 0, 4], &g, &Default::default()).unwrap_err();
         assert!(e.message().contains("dims"), "{e}");
+    }
+
+    /// An icosphere made into an arbitrary closed mesh: placed at `centre` (fractions of the
+    /// grid's extent along i, j and k), of `radius` voxels of the largest spacing, stretched and
+    /// rotated, each vertex moved by up to `jitter` radii (`noise`, cycled), which folds it
+    /// through itself when large, and, if `snapped`, moved to the nearest voxel centre, so that
+    /// voxel rows run through its vertices and along its edges.
+    #[derive(Debug, Clone)]
+    struct Blob {
+        levels: u32,
+        centre: [f64; 3],
+        radius: f64,
+        stretch: [f64; 3],
+        angles: [f64; 3],
+        jitter: f64,
+        noise: Vec<[f64; 3]>,
+        snapped: bool,
+    }
+
+    impl Blob {
+        fn mesh(&self, dims: [usize; 3], g: &Geometry) -> TriMesh {
+            let extent = DVec3::from_array(dims.map(|d| (d - 1) as f64));
+            let centre = g.index_to_world(DVec3::from_array(self.centre) * extent);
+            let [a, b, c] = self.angles;
+            let rotation = glam::DQuat::from_euler(glam::EulerRot::ZYX, a, b, c);
+            let radius = self.radius * g.max_spacing();
+            let (points, triangles) = icosphere(DVec3::ZERO, 1.0, self.levels).into_parts();
+            let points = points
+                .into_iter()
+                .zip(self.noise.iter().cycle())
+                .map(|(p, &noise)| {
+                    let p = p * DVec3::from_array(self.stretch)
+                        + DVec3::from_array(noise) * self.jitter;
+                    let p = centre + rotation * p * radius;
+                    if self.snapped {
+                        g.index_to_world(g.world_to_index(p).round())
+                    } else {
+                        p
+                    }
+                })
+                .collect();
+            TriMesh::new(points, triangles).unwrap()
+        }
+    }
+
+    fn blob() -> impl Strategy<Value = Blob> {
+        (
+            1u32..=2,
+            [0.0f64..1.0, 0.0..1.0, 0.0..1.0],
+            1.0f64..5.0,
+            [0.4f64..2.5, 0.4..2.5, 0.4..2.5],
+            [0.0f64..TAU, 0.0..TAU, 0.0..TAU],
+            prop_oneof![Just(0.0), 0.0f64..0.5],
+            proptest::collection::vec([-1.0f64..1.0, -1.0..1.0, -1.0..1.0], 1..32),
+            any::<bool>(),
+        )
+            .prop_map(
+                |(levels, centre, radius, stretch, angles, jitter, noise, snapped)| Blob {
+                    levels,
+                    centre,
+                    radius,
+                    stretch,
+                    angles,
+                    jitter,
+                    noise,
+                    snapped,
+                },
+            )
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(500))]
+
+        /// Unions of one to three blobs (convex polytopes, overlapping ones, folded ones) on
+        /// random grids, as the closed mesh and, with every `k`-th triangle deleted, as the
+        /// surface: negative exactly where the winding number is positive, wherever the
+        /// distance is not within rounding of zero, and of the brute-force magnitude.
+        #[test]
+        fn sign_follows_the_winding_number_and_magnitude_the_brute_force_distance(
+            dims in [3usize..=12, 3usize..=12, 3usize..=12],
+            g in any_geometry(0.3..3.0),
+            blobs in proptest::collection::vec(blob(), 1..=3),
+            delete_every in proptest::option::of(2usize..6),
+            band_voxels in 1.0f64..5.0,
+        ) {
+            let mut closed = TriMesh::default();
+            for blob in &blobs {
+                closed.append(&blob.mesh(dims, &g)).unwrap();
+            }
+            let surface = match delete_every {
+                Some(k) => {
+                    let kept: Vec<[DVec3; 3]> = (0..closed.triangles().len())
+                        .filter(|t| t % k != 0)
+                        .map(|t| closed.corners(t))
+                        .collect();
+                    TriMesh::from_soup(&kept).unwrap()
+                }
+                None => closed.clone(),
+            };
+            let options = SignedDistanceOptions { band_voxels };
+            assert_matches_brute_force(&surface, &closed, dims, &g, &options);
+        }
     }
 
     #[test]

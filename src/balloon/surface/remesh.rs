@@ -562,6 +562,10 @@ mod tests {
     use crate::balloon::surface::tests::assert_valid;
     use crate::mesh::test_shapes::torus;
     use crate::mesh::TriMesh;
+    use crate::mesh_checks::check;
+    use glam::{DMat3, EulerRot};
+    use proptest::prelude::*;
+    use std::f64::consts::TAU;
 
     /// splitmix64: a seeded, dependency-free source of test randomness.
     struct Rng(u64);
@@ -976,6 +980,54 @@ mod tests {
         s.split_long_edges(0.5).unwrap();
         while s.collapse_short_edges(1e3, 1e3).unwrap() > 0 {}
         assert_valid(&s, 0);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(500))]
+
+        /// One remeshing step as inflation takes it (splits above `split`, collapses below
+        /// `collapse · split`, valence flips), with any lengths, on a sphere or a torus that is
+        /// stretched along random axes (edges of very different lengths), jittered by up to
+        /// `jitter` mean edge lengths and partly frozen: the surface stays one closed,
+        /// consistently oriented 2-manifold of the same genus.
+        #[test]
+        fn a_remeshing_step_keeps_a_closed_oriented_manifold_of_the_same_genus(
+            start_with_torus in any::<bool>(),
+            stretch in [0.3f64..3.0, 0.3..3.0, 0.3..3.0],
+            [a, b, c] in [0.0f64..TAU, 0.0..TAU, 0.0..TAU],
+            jitter in 0.0f64..0.4,
+            noise in proptest::collection::vec([-1.0f64..1.0, -1.0..1.0, -1.0..1.0], 1..64),
+            states in proptest::collection::vec(0u8..4, 1..64),
+            split in 0.3f64..3.0,
+            collapse in 0.0f64..1.0,
+        ) {
+            let (mut s, euler) = if start_with_torus {
+                (Surface::from_mesh(&torus(DVec3::ZERO, 3.0, 1.0, 16, 8)).unwrap(), 0)
+            } else {
+                (Surface::icosphere(DVec3::ZERO, 1.0, 2).unwrap(), 2)
+            };
+            let rotation = DMat3::from_euler(EulerRot::ZYX, a, b, c);
+            let stretch =
+                rotation * DMat3::from_diagonal(DVec3::from_array(stretch)) * rotation.transpose();
+            let step = jitter * mean_edge_length(&s);
+            for (p, &n) in s.positions_mut().iter_mut().zip(noise.iter().cycle()) {
+                *p = stretch * (*p + DVec3::from_array(n) * step);
+            }
+            // Half of the vertices moving; shrinking goes towards all of them.
+            for (state, &code) in s.states_mut().iter_mut().zip(states.iter().cycle()) {
+                *state = match code {
+                    2 => VertexState::FrozenAtBorder,
+                    3 => VertexState::FrozenBySelfIntersection,
+                    _ => VertexState::Moving,
+                };
+            }
+            let split = split * mean_edge_length(&s);
+            s.split_long_edges(split).unwrap();
+            s.collapse_short_edges(collapse * split, split).unwrap();
+            s.flip_edges_for_valence();
+            assert_valid(&s, euler);
+            prop_assert_eq!(check(&s.to_mesh().unwrap()).components, 1);
+        }
     }
 
     #[test]

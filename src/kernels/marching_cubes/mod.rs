@@ -784,6 +784,9 @@ mod tests {
     use super::*;
     use crate::error::ErrorKind;
     use crate::geometry::Geometry;
+    use crate::winding_number::test_fixtures::any_geometry;
+    use crate::winding_number::winding_numbers;
+    use proptest::prelude::*;
 
     /// SplitMix64: reproducible random fields without a dependency.
     struct Rng(u64);
@@ -1100,23 +1103,50 @@ mod tests {
         assert!(extract(&vec![5.0; 27], [3, 3, 3], Geometry::identity(), 5.0).is_empty());
     }
 
-    #[test]
-    fn random_fields_are_closed_manifold_and_oriented() {
-        let mut rng = Rng(1);
-        for case in 0..400 {
-            let dims = [2 + rng.below(6), 2 + rng.below(6), 2 + rng.below(6)];
-            let n = dims.iter().product();
-            // Half of the fields are small integers, full of ties with the level.
-            let data: Vec<f64> = if case % 2 == 0 {
-                (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect()
-            } else {
-                (0..n).map(|_| rng.below(5) as f64 - 2.0).collect()
-            };
-            let level = if case % 2 == 0 { 0.1 } else { 0.0 };
-            let mesh = extract(&data, dims, Geometry::identity(), level);
-            assert_open_only_on_the_grid_boundary(&mesh, dims);
-            let (data, dims) = padded(&data, dims, -3.0);
-            closed_euler(&extract(&data, dims, Geometry::identity(), level));
+    /// Random fields on grids of 2 to 8 samples per axis: uniform values, or small integers full
+    /// of ties with the level 0.
+    fn random_field() -> impl Strategy<Value = (Vec<f64>, [usize; 3])> {
+        [2usize..=8, 2usize..=8, 2usize..=8].prop_flat_map(|dims| {
+            let n: usize = dims.iter().product();
+            let values = prop_oneof![
+                proptest::collection::vec(-1.0f64..1.0, n),
+                proptest::collection::vec((-2i8..=2).prop_map(f64::from), n),
+            ];
+            (values, Just(dims))
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+
+        /// Open only where the surface leaves the grid; closed by a border on either side of the
+        /// level, a manifold, consistently oriented surface that encloses exactly the samples on
+        /// the border's other side, on any grid geometry: winding number 1 below the level
+        /// inside a border above it (normals point out, towards increasing values), −1 above
+        /// the level inside a border below it. Samples within 1e-9 of the level may lie on the
+        /// surface and are not asked.
+        #[test]
+        fn random_fields_are_closed_manifold_oriented_and_enclose_their_side(
+            (data, dims) in random_field(),
+            border_above in any::<bool>(),
+            g in any_geometry(0.3..3.0),
+        ) {
+            assert_open_only_on_the_grid_boundary(
+                &extract(&data, dims, Geometry::identity(), 0.0),
+                dims,
+            );
+            let (data, dims) = padded(&data, dims, if border_above { 3.0 } else { -3.0 });
+            let mesh = extract(&data, dims, g, 0.0);
+            closed_euler(&mesh);
+            let winding = winding_numbers(&mesh, dims, &g).unwrap();
+            for (n, (&value, &w)) in data.iter().zip(&winding).enumerate() {
+                let expected = match (border_above, value) {
+                    (_, v) if v.abs() <= 1e-9 => continue,
+                    (true, v) => i32::from(v < 0.0),
+                    (false, v) => -i32::from(v > 0.0),
+                };
+                prop_assert_eq!(w, expected, "sample {} = {}", n, value);
+            }
         }
     }
 
