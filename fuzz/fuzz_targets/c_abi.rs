@@ -6,33 +6,26 @@
 
 #![no_main]
 
+#[path = "bytes.rs"]
+mod bytes;
+
 use std::ffi::c_void;
 use std::ptr;
 
 use balloonseg::ffi::*;
+use bytes::Bytes;
 use libfuzzer_sys::fuzz_target;
 
-/// The fuzzer's bytes read in order; zeros once they run out.
-struct Bytes<'a>(&'a [u8]);
-
-impl Bytes<'_> {
-    fn byte(&mut self) -> u8 {
-        let (&b, rest) = self.0.split_first().unwrap_or((&0, &[]));
-        self.0 = rest;
-        b
-    }
-
-    /// A number as a host might pass it: ordinary, zero, negative, huge, tiny or NaN.
-    fn number(&mut self, typical: f64) -> f64 {
-        match self.byte() % 16 {
-            0 => 0.0,
-            1 => -typical,
-            2 => f64::NAN,
-            3 => f64::INFINITY,
-            4 => typical * 1e9,
-            5 => typical * 1e-9,
-            _ => typical * (0.25 + f64::from(self.byte()) / 64.0),
-        }
+/// A number as a C host might pass it: ordinary, zero, negative, huge, tiny or NaN.
+fn number(bytes: &mut Bytes, typical: f64) -> f64 {
+    match bytes.byte() % 16 {
+        0 => 0.0,
+        1 => -typical,
+        2 => f64::NAN,
+        3 => f64::INFINITY,
+        4 => typical * 1e9,
+        5 => typical * 1e-9,
+        _ => typical * (0.25 + f64::from(bytes.byte()) / 64.0),
     }
 }
 
@@ -79,11 +72,11 @@ fn volume(bytes: &mut Bytes) -> Voxels {
     if scalar_type == 7 && bytes.byte() % 4 == 0 {
         storage[0] = f64::NAN;
     }
-    let spacing = [0; 3].map(|_| bytes.number(1.0));
-    let origin = [0; 3].map(|_| bytes.number(10.0));
+    let spacing = [0; 3].map(|_| number(bytes, 1.0));
+    let origin = [0; 3].map(|_| number(bytes, 10.0));
     let mut direction = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
     if bytes.byte() % 4 == 0 {
-        direction = direction.map(|_| bytes.number(1.0));
+        direction = direction.map(|_| number(bytes, 1.0));
     }
     // SAFETY: `first` elements into the storage, where the strides' offsets start.
     let data = unsafe { raw.add(first as usize * width) }.cast::<c_void>();
@@ -155,14 +148,14 @@ fuzz_target!(|data: &[u8]| {
         // SAFETY: writable, of this library's size.
         let status = unsafe { balloon_param_info(bytes.byte() as usize % count, &mut info) };
         if ok(status) {
-            let value = bytes.number(50.0);
+            let value = number(&mut bytes, 50.0);
             // SAFETY: a writable BalloonParams; the name is the library's static string.
             ok(unsafe { balloon_params_set(&mut params, info.name, value) });
         }
     }
     params.max_vertices = params.max_vertices.min(20_000);
     params.max_iterations = params.max_iterations.min(60);
-    let seed = [0; 3].map(|_| bytes.number(5.0));
+    let seed = [0; 3].map(|_| number(&mut bytes, 5.0));
     let mut handle = ptr::null_mut();
     // SAFETY: the volume's voxels live in `voxels` until the handle is freed below.
     let status = unsafe { balloon_init(&voxels.volume, &params, seed.as_ptr(), &mut handle) };
@@ -177,7 +170,7 @@ fuzz_target!(|data: &[u8]| {
         unsafe {
             match bytes.byte() % 7 {
                 0 => {
-                    let seed = [0; 3].map(|_| bytes.number(5.0));
+                    let seed = [0; 3].map(|_| number(&mut bytes, 5.0));
                     ok(balloon_add_seed(handle, seed.as_ptr()));
                 }
                 1 => {
@@ -218,7 +211,9 @@ fuzz_target!(|data: &[u8]| {
     unsafe { balloon_free(handle) };
     let mut mesh = ptr::null_mut();
     // SAFETY: the volume is valid during the call; `mesh` is writable.
-    if ok(unsafe { balloon_marching_cubes(&voxels.volume, bytes.number(100.0), 1, &mut mesh) }) {
+    if ok(unsafe {
+        balloon_marching_cubes(&voxels.volume, number(&mut bytes, 100.0), 1, &mut mesh)
+    }) {
         // SAFETY: the kernel's mesh, freed once.
         unsafe { balloon_trimesh_free(mesh) };
     }

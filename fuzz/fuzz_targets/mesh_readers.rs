@@ -3,14 +3,14 @@
 
 #![no_main]
 
-#[path = "common.rs"]
-mod common;
+#[path = "as_file.rs"]
+mod as_file;
 
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     let extensions = ["vtp", "vtk", "ply", "stl", "obj", "off"];
-    if let Some(path) = common::as_file(data, &extensions) {
+    if let Some(path) = as_file::as_file(data, &extensions) {
         if let Ok(mesh) = balloonseg::io::read_mesh(&path) {
             let _ = balloonseg::mesh_checks::check(&mesh);
             let _ = balloonseg::self_intersection::self_intersections(&mesh);

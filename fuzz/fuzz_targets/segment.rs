@@ -4,42 +4,35 @@
 
 #![no_main]
 
+#[path = "bytes.rs"]
+mod bytes;
+
 use balloonseg::balloon::{BalloonParams, Segmenter};
 use balloonseg::{mesh_checks, self_intersection, Geometry, Image, VoxelBuffer};
+use bytes::Bytes;
 use glam::{DMat3, DVec3};
 use libfuzzer_sys::fuzz_target;
 
-/// The fuzzer's bytes read in order; zeros once they run out.
-struct Bytes<'a>(&'a [u8]);
-
-impl Bytes<'_> {
-    fn byte(&mut self) -> u8 {
-        let (&b, rest) = self.0.split_first().unwrap_or((&0, &[]));
-        self.0 = rest;
-        b
-    }
-
-    /// `lo..=hi` in 256 steps.
-    fn between(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * f64::from(self.byte()) / 255.0
-    }
+/// `lo..=hi` in 256 steps.
+fn between(bytes: &mut Bytes, lo: f64, hi: f64) -> f64 {
+    lo + (hi - lo) * f64::from(bytes.byte()) / 255.0
 }
 
 fuzz_target!(|data: &[u8]| {
     let mut bytes = Bytes(data);
     let dims = [0; 3].map(|_| 2 + bytes.byte() as usize % 23);
-    let spacing = [0; 3].map(|_| bytes.between(0.2, 3.0));
+    let spacing = [0; 3].map(|_| between(&mut bytes, 0.2, 3.0));
     let angles = DVec3::new(
-        bytes.between(0.0, 6.3),
-        bytes.between(0.0, 6.3),
-        bytes.between(0.0, 6.3),
+        between(&mut bytes, 0.0, 6.3),
+        between(&mut bytes, 0.0, 6.3),
+        between(&mut bytes, 0.0, 6.3),
     );
     let mut rotation = DMat3::from_euler(glam::EulerRot::XYZ, angles.x, angles.y, angles.z);
     if bytes.byte() % 2 == 1 {
         rotation.x_axis = -rotation.x_axis;
     }
     let direction = rotation.transpose().to_cols_array();
-    let origin = [0; 3].map(|_| bytes.between(-100.0, 100.0));
+    let origin = [0; 3].map(|_| between(&mut bytes, -100.0, 100.0));
     let Ok(geometry) = Geometry::new(spacing, origin, direction) else {
         return;
     };
@@ -51,10 +44,10 @@ fuzz_target!(|data: &[u8]| {
     let params = BalloonParams {
         max_iterations: 1 + u32::from(bytes.byte()) % 80,
         max_vertices: 20_000,
-        reference: (bytes.byte() % 4 == 0).then(|| bytes.between(0.0, 255.0)),
-        tolerance: (bytes.byte() % 4 == 0).then(|| bytes.between(1.0, 200.0)),
+        reference: (bytes.byte() % 4 == 0).then(|| between(&mut bytes, 0.0, 255.0)),
+        tolerance: (bytes.byte() % 4 == 0).then(|| between(&mut bytes, 1.0, 200.0)),
         edge_length: (bytes.byte() % 4 == 0)
-            .then(|| bytes.between(0.5, 3.0) * geometry.mean_spacing()),
+            .then(|| between(&mut bytes, 0.5, 3.0) * geometry.mean_spacing()),
         threads: 1,
         ..BalloonParams::default()
     };

@@ -1,5 +1,5 @@
-//! What the reader targets share: the fuzzer's bytes as a file with a chosen extension, since
-//! the readers' entry points take paths (detached headers name their data files).
+//! The fuzzer's bytes as a file with a chosen extension, for the reader targets: the readers'
+//! entry points take paths (detached headers name their data files).
 
 use std::path::PathBuf;
 
