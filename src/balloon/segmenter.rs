@@ -38,8 +38,6 @@ use crate::geometry::Geometry;
 use crate::mesh::TriMesh;
 use crate::volume::Volume;
 
-/// The smallest local step that is an edge, as a share of the structure's contrast and in σ
-/// of the image inside the structure at the scale of local steps (its texture).
 /// The largest ratio of the longest voxel spacing to the shortest. The balloon's grids (its
 /// re-parametrisation, the touching cut, the objects' repartition) have the shortest spacing
 /// over the balloon's box, so their size grows with the square of the ratio; scans stay within
@@ -60,6 +58,8 @@ const UNIT_DIRECTION: f64 = 1e-3;
 /// spans 0.87.
 const MIN_AXES_SINE: f64 = 0.1;
 
+/// The smallest local step that is an edge, as a share of the structure's contrast and in σ
+/// of the image inside the structure at the scale of local steps (its texture).
 const LOCAL_STEP_SHARE: f64 = 0.25;
 const LOCAL_STEP_TEXTURE: f64 = 5.0;
 /// The smallest dip of a thin dark wall, as a share of a local step and in σ of the texture.
