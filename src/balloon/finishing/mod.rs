@@ -122,16 +122,21 @@ impl Segmenter<'_, '_> {
         if pairs.is_empty() {
             self.surface.positions_mut().copy_from_slice(before);
         } else {
-            // The mesh numbers the live slots densely, in slot order.
-            let slots: Vec<u32> = self.surface.live_vertices().collect();
-            let corners: Vec<u32> = pairs
-                .iter()
-                .flat_map(|&(a, b)| [a, b])
-                .flat_map(|t| mesh.triangles()[t as usize])
-                .map(|v| slots[v as usize])
-                .collect();
+            let triangles = pairs.iter().flat_map(|&(a, b)| [a, b]);
+            let corners = self.corner_slots(mesh, triangles);
             fairing::restore(&mut self.surface, before, corners, UNFAIR_RINGS);
         }
         self.index_surface();
+    }
+
+    /// The surface's slots of the corners of `triangles` of `mesh` (the current surface as
+    /// [`Self::mesh`] gave it), repeated where triangles share a corner.
+    fn corner_slots(&self, mesh: &TriMesh, triangles: impl Iterator<Item = u32>) -> Vec<u32> {
+        // The mesh numbers the live slots densely, in slot order.
+        let slots: Vec<u32> = self.surface.live_vertices().collect();
+        triangles
+            .flat_map(|t| mesh.triangles()[t as usize])
+            .map(|v| slots[v as usize])
+            .collect()
     }
 }

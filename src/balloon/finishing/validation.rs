@@ -121,13 +121,7 @@ impl Segmenter<'_, '_> {
         crossing: &[u32],
         clearance: f64,
     ) -> Result<bool> {
-        // The mesh numbers the live slots densely, in slot order.
-        let slots: Vec<u32> = self.surface.live_vertices().collect();
-        let mut corners: Vec<u32> = crossing
-            .iter()
-            .flat_map(|&t| mesh.triangles()[t as usize])
-            .map(|v| slots[v as usize])
-            .collect();
+        let mut corners = self.corner_slots(mesh, crossing.iter().copied());
         corners.sort_unstable();
         corners.dedup();
         let before = self.surface.positions().to_vec();
