@@ -26,7 +26,7 @@ pub mod volume;
 pub(crate) use kernels::disjoint_sets;
 pub use kernels::{
     closest_point, digital_topology, distance_transform, marching_cubes, mesh_checks, morphology,
-    predicates, self_intersection, signed_distance, smoothed_volume, spatial_hash,
+    predicates, self_intersection, signed_distance, simplification, smoothed_volume, spatial_hash,
     triangle_intersection, winding_number,
 };
 

@@ -17,7 +17,7 @@
 //! [`progress`].
 
 mod contacts;
-mod fast_hash;
+pub(crate) mod fast_hash;
 mod finishing;
 pub mod image_model;
 pub mod inflation;

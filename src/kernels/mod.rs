@@ -15,6 +15,7 @@ pub mod morphology;
 pub mod predicates;
 pub mod self_intersection;
 pub mod signed_distance;
+pub mod simplification;
 pub mod smoothed_volume;
 pub mod spatial_hash;
 pub mod triangle_intersection;

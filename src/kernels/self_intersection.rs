@@ -106,6 +106,21 @@ fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> 
     pairs
 }
 
+/// Whether two triangles of one mesh, given by their corners and vertex ids, intersect as
+/// `self_intersections` decides it: for callers that test a few pairs of a mesh they are
+/// changing. Both triangles must be distinct and non-degenerate.
+pub(crate) fn mesh_triangles_intersect(
+    a: ([DVec3; 3], [u32; 3]),
+    b: ([DVec3; 3], [u32; 3]),
+) -> bool {
+    let face = |(corners, vertices): ([DVec3; 3], [u32; 3])| Face {
+        corners,
+        vertices,
+        id: 0,
+    };
+    faces_intersect(&face(a), &face(b))
+}
+
 /// A non-degenerate triangle of the mesh, as the exact tests need it. Its plane is not stored
 /// but made per test: 88 bytes per face instead of 136 (with the plane's normal and error
 /// magnitudes) take fewer fresh pages and cache lines than the plane takes arithmetic

@@ -10,6 +10,7 @@ mod param_flags;
 mod phantom;
 mod render;
 mod segment;
+mod simplify;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -49,6 +50,9 @@ enum Command {
     /// A PNG of a mesh (or several, each in its colour) over three slices of its volume, and a
     /// shaded 3D view of it.
     Render(render::Args),
+    /// Fewer triangles within a distance of the input, both ways, keeping the mesh closed,
+    /// manifold, outward, free of self-intersections and of the same genus.
+    Simplify(simplify::Args),
 }
 
 fn main() -> ExitCode {
@@ -71,6 +75,7 @@ fn main() -> ExitCode {
         Command::Phantom(args) => phantom::run(&args),
         Command::Demo(args) => demo::run(&args, cli.threads),
         Command::Render(args) => render::run(&args),
+        Command::Simplify(args) => simplify::run(&args),
     });
     match result {
         Ok(code) => code,
