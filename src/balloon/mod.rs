@@ -30,7 +30,9 @@ pub mod surface;
 
 pub use image_model::region::Region;
 pub use inflation::forces::ForceWeights;
-pub use objects::{segment_objects, ObjectSeeds, ObjectsRequest, SegmentedObject};
+pub use objects::{
+    segment_objects, simplify_objects, ObjectSeeds, ObjectsRequest, SegmentedObject,
+};
 pub use params::BalloonParams;
 pub use progress::{Phase, PhaseSeconds, ProgressCallback};
 pub use segmenter::{SegmentationStats, Segmenter};

@@ -21,6 +21,9 @@
 
 pub(in crate::balloon) mod obstacle;
 mod partition;
+mod simplified;
+
+pub use simplified::simplify_objects;
 
 use std::cell::RefCell;
 use std::collections::HashMap;

@@ -13,7 +13,7 @@ pub struct Args {
     /// of self-intersections.
     mesh: PathBuf,
     /// The largest distance (mm) allowed between the input and the result, both ways.
-    #[arg(long = "max-error")]
+    #[arg(long = "max-error", allow_negative_numbers = true)]
     max_error: f64,
     #[command(flatten)]
     output: crate::Output,
