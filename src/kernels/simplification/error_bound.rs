@@ -158,6 +158,8 @@ impl Attachments {
             .flat_map(|&t| self.pieces[t as usize].iter().map(move |&p| (p, t)))
             .map(|(p, t)| (p, slot_of(t)))
             .collect();
+        // Grouped by source; the order within a group is the order gathered (sort_by_key is
+        // stable), so that the result does not depend on the sort.
         gathered.sort_by_key(|(p, _)| p.source);
         let mut work = Vec::with_capacity(gathered.len());
         for group in gathered.chunk_by(|x, y| x.0.source == y.0.source) {

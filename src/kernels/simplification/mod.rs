@@ -6,8 +6,11 @@
 //! mesh simplification"), and a tool on its own for meshes from anywhere.
 //!
 //! Collapses are taken greedily in the order of Garland–Heckbert's quadric error (`quadric`),
-//! each at the best of a few positions (the quadric's minimiser, the best point of the edge,
-//! its endpoints) that passes every check, cheapest first:
+//! each at the first of a few positions (the quadric's minimiser, the best point of the edge,
+//! its endpoints, the first of these moved half the bound off the surface either way) that
+//! passes every check (in the order of the list below, except that the
+//! input's side of the distance bound, which fails most often, comes before the search for
+//! self-intersections):
 //! 1. topology: the link condition of Dey et al. (the endpoints' common neighbours are the two
 //!    opposite vertices), and no opposite vertex left with two triangles, so a collapse never
 //!    changes the genus, splits a component or collapses a tetrahedron;
@@ -297,7 +300,24 @@ impl Simplifier {
             return false;
         };
         let q = self.quadrics[a as usize] + self.quadrics[b as usize];
-        for (_, position) in q.placements(self.points[a as usize], self.points[b as usize]) {
+        let mut tried = q.placements(self.points[a as usize], self.points[b as usize]);
+        // Then the best of those half the bound off the surface, on either side: where the
+        // surface curves, a vertex on it makes chords that sag to one side, and one off it
+        // splits the error between both.
+        let normal = star
+            .moved
+            .iter()
+            .chain(&star.deleted)
+            .map(|&t| {
+                let [p, q, r] = self.corners(t);
+                (q - p).cross(r - p)
+            })
+            .sum::<DVec3>()
+            .normalize_or_zero();
+        let best = tried[0].1;
+        let offset = normal * (0.5 * self.limit);
+        tried.extend([(0.0, best + offset), (0.0, best - offset)]);
+        for (_, position) in tried {
             if let Some(pieces) = self.admissible(&star, position) {
                 self.commit(&star, position, pieces);
                 return true;
@@ -336,9 +356,8 @@ impl Simplifier {
                 return None;
             }
         }
-        if self.intersects_after(star, &after) {
-            return None;
-        }
+        // The distance bound before the self-intersection search: most tried collapses fail
+        // the bound, and hardly any of those that pass it intersect.
         let targets: Vec<Target> = after
             .iter()
             .map(|&(corners, vertices)| Target::new(corners, vertices))
@@ -346,6 +365,9 @@ impl Simplifier {
         let from: Vec<u32> = star.deleted.iter().chain(&star.moved).copied().collect();
         let slot_of = |t: u32| star.moved.binary_search(&t).ok();
         let placed = self.pieces.place(&from, slot_of, &targets, self.limit)?;
+        if self.intersects_after(star, &after) {
+            return None;
+        }
         let mut scratch = std::mem::take(&mut self.scratch);
         let covered = after
             .iter()
