@@ -5,6 +5,7 @@
 mod check;
 mod demo;
 mod distance;
+mod hausdorff;
 mod isosurface;
 mod param_flags;
 mod phantom;
@@ -41,6 +42,9 @@ enum Command {
     Check(check::Args),
     /// Signed distance (mm, negative inside) from a closed mesh on the grid of a volume.
     Distance(distance::Args),
+    /// Two-sided Hausdorff distance between two meshes (exact point-to-triangle distances from
+    /// samples on each), as JSON.
+    Hausdorff(hausdorff::Args),
     /// Write a synthetic test volume: a shape (sphere, torus, double-torus, y-vessel,
     /// touching-tubes, fading-tube) or a variant of a family (ct-scene, thin-wall,
     /// touching-pair, thin-vessels, stent, vessel-chamber).
@@ -72,6 +76,7 @@ fn main() -> ExitCode {
         Command::Isosurface(args) => isosurface::run(&args),
         Command::Check(args) => check::run(&args),
         Command::Distance(args) => distance::run(&args),
+        Command::Hausdorff(args) => hausdorff::run(&args),
         Command::Phantom(args) => phantom::run(&args),
         Command::Demo(args) => demo::run(&args, cli.threads),
         Command::Render(args) => render::run(&args),
