@@ -221,3 +221,29 @@ fn segment_simplifies_its_result_and_carries_the_vertex_states_over() {
     assert!(!never.exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn the_hausdorff_command_measures_both_ways() {
+    let dir = scratch("hausdorff");
+    let (small, large) = (dir.join("small.ply"), dir.join("large.ply"));
+    let sphere = |radius: f64| TriMesh::icosphere(glam::DVec3::ZERO, radius, 3);
+    io::write_mesh(&small, &sphere(10.0), &[]).unwrap();
+    io::write_mesh(&large, &sphere(10.5), &[]).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_balloonseg"))
+        .args(["hausdorff", "--steps", "1"])
+        .args([&small, &large])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    // From the inner sphere's vertices to the outer polyhedron: at least the 0.5 mm between
+    // the spheres less the outer one's sag; from the outer vertices: 0.5 mm plus the inner sag.
+    let (forward, backward) = (
+        json["a_to_b_mm"].as_f64().unwrap(),
+        json["b_to_a_mm"].as_f64().unwrap(),
+    );
+    assert!(forward > 0.3 && forward <= 0.5 + 1e-9, "{json}");
+    assert!(backward >= 0.5 - 1e-9 && backward < 0.7, "{json}");
+    assert_eq!(json["hausdorff_mm"].as_f64().unwrap(), forward.max(backward));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
