@@ -234,7 +234,11 @@ fn the_hausdorff_command_measures_both_ways() {
         .args([&small, &large])
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     // From the inner sphere's vertices to the outer polyhedron: at least the 0.5 mm between
     // the spheres less the outer one's sag; from the outer vertices: 0.5 mm plus the inner sag.
@@ -244,6 +248,9 @@ fn the_hausdorff_command_measures_both_ways() {
     );
     assert!(forward > 0.3 && forward <= 0.5 + 1e-9, "{json}");
     assert!(backward >= 0.5 - 1e-9 && backward < 0.7, "{json}");
-    assert_eq!(json["hausdorff_mm"].as_f64().unwrap(), forward.max(backward));
+    assert_eq!(
+        json["hausdorff_mm"].as_f64().unwrap(),
+        forward.max(backward)
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

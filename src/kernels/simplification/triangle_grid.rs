@@ -64,8 +64,13 @@ impl TriangleGrid {
         let to_cell = |x: f64| (x * self.inverse_cell).floor().clamp(-1e9, 1e9) as i32;
         let lo = b.lo.to_array().map(to_cell);
         let hi = b.hi.to_array().map(to_cell);
-        let count: i64 = (0..3).map(|k| i64::from(hi[k] - lo[k]) + 1).product();
-        (count <= MAX_CELLS_PER_BOX).then_some((lo, hi))
+        // Up to 2·10⁹ cells a side: the product can exceed i64, hence checked.
+        let count = (0..3).try_fold(1i64, |n, k| {
+            n.checked_mul(i64::from(hi[k]) - i64::from(lo[k]) + 1)
+        });
+        count
+            .is_some_and(|n| n <= MAX_CELLS_PER_BOX)
+            .then_some((lo, hi))
     }
 
     fn for_cells(lo: [i32; 3], hi: [i32; 3], mut f: impl FnMut([i32; 3])) {
@@ -151,6 +156,19 @@ mod tests {
         grid.query(&unit_box_at(1.2), &mut found);
         assert!(found.is_empty());
         assert!(grid.cells.values().all(|list| !list.contains(&7)));
+    }
+
+    #[test]
+    fn a_box_spanning_the_whole_coordinate_range_counts_its_cells_without_overflow() {
+        let mut grid = TriangleGrid::new(1e-3);
+        let everything = Bounds {
+            lo: DVec3::splat(-1e300),
+            hi: DVec3::splat(1e300),
+        };
+        grid.insert(1, &everything);
+        let mut found = Vec::new();
+        grid.query(&everything, &mut found);
+        assert_eq!(found, vec![1]);
     }
 
     #[test]
