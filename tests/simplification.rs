@@ -247,7 +247,7 @@ fn the_hausdorff_command_measures_both_ways() {
         json["b_to_a_mm"].as_f64().unwrap(),
     );
     assert!(forward > 0.3 && forward <= 0.5 + 1e-9, "{json}");
-    assert!(backward >= 0.5 - 1e-9 && backward < 0.7, "{json}");
+    assert!((0.5 - 1e-9..0.7).contains(&backward), "{json}");
     assert_eq!(
         json["hausdorff_mm"].as_f64().unwrap(),
         forward.max(backward)
