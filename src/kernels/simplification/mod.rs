@@ -387,31 +387,35 @@ impl Simplifier {
     }
 
     /// Whether a moved triangle would meet another triangle, moved or not, other than where
-    /// the mesh joins them.
+    /// the mesh joins them. The grid holds the moved triangles where they were, so they are
+    /// tested against each other directly and against the grid's others.
     fn intersects_after(&mut self, star: &Star, after: &[([DVec3; 3], [u32; 3])]) -> bool {
-        let mut near = std::mem::take(&mut self.scratch);
-        let mut found = false;
-        'moved: for (k, &(corners, vertices)) in after.iter().enumerate() {
-            let bounds = Bounds::of(corners);
-            self.grid.query(&bounds, &mut near);
-            for &other in &near {
-                if !self.alive[other as usize] || star.deleted.contains(&other) {
-                    continue;
-                }
-                let other_triangle = match star.moved.binary_search(&other) {
-                    // Pairs of moved triangles are tested once, from the first of the two.
-                    Ok(j) if j <= k => continue,
-                    Ok(j) => after[j],
-                    Err(_) => (self.corners(other), self.triangles[other as usize]),
-                };
-                if bounds.overlaps(&Bounds::of(other_triangle.0))
-                    && mesh_triangles_intersect((corners, vertices), other_triangle)
-                {
-                    found = true;
-                    break 'moved;
+        let boxes: Vec<Bounds> = after
+            .iter()
+            .map(|&(corners, _)| Bounds::of(corners))
+            .collect();
+        for (k, &moved) in after.iter().enumerate() {
+            for (j, &other) in after.iter().enumerate().skip(k + 1) {
+                if boxes[k].overlaps(&boxes[j]) && mesh_triangles_intersect(moved, other) {
+                    return true;
                 }
             }
         }
+        let mut near = std::mem::take(&mut self.scratch);
+        let found = after.iter().zip(&boxes).any(|(&moved, bounds)| {
+            self.grid.query(bounds, &mut near);
+            near.iter().any(|&other| {
+                let unchanged = self.alive[other as usize]
+                    && !star.deleted.contains(&other)
+                    && star.moved.binary_search(&other).is_err();
+                unchanged
+                    && bounds.overlaps(&self.bounds[other as usize])
+                    && mesh_triangles_intersect(
+                        moved,
+                        (self.corners(other), self.triangles[other as usize]),
+                    )
+            })
+        });
         self.scratch = near;
         found
     }
