@@ -4,8 +4,10 @@
 //! Both directions rest on one fact: the distance to a convex set (one triangle) is a convex
 //! function, so its largest value over a triangle is at one of its corners. A triangle whose
 //! three corners lie within `ε` of one triangle lies within `ε` of it entirely. Where no single
-//! triangle serves, the piece is cut into four at its edge midpoints and each quarter tried
-//! again, down to `MAX_DEPTH` cuts; a piece that still fails fails the collapse.
+//! triangle serves, the piece is cut and each part tried again (`divide_onto`): a piece over
+//! two adjacent triangles along the plane where it passes from one to the other, any other into
+//! four at its edge midpoints; a piece that still fails after `MAX_DEPTH` cuts, or among
+//! `MAX_PARTS` parts, fails the collapse.
 //!
 //! - **Input within ε of the output.** The input surface is partitioned into pieces (at first
 //!   its triangles), each attached to one output triangle whose distance to its corners is at
@@ -19,8 +21,8 @@
 //!   input triangles near it (`InputSurface::covers`): pieces within `ε` of one input triangle
 //!   pass, and so do pieces whose corners are within `ε − ℓ/√3` of the input, `ℓ` the piece's
 //!   longest edge (the distance to a set is 1-Lipschitz, and every point of a triangle is
-//!   within `ℓ/√3` of a corner). A corner farther than `ε` from the input disproves the
-//!   triangle at once.
+//!   within `ℓ/√3` of a corner); the others are cut into quarters, whose reach shrinks. A
+//!   corner farther than `ε` from the input disproves the triangle at once.
 //!
 //! Distances are computed in f64 against a limit `ε·(1 − 1e-9)`, which keeps the rounding of
 //! the distance computation inside the bound.
@@ -141,8 +143,9 @@ impl Attachments {
     }
 
     /// The pieces of the output triangles `from` placed on `targets` (the triangles that
-    /// replace them): each piece, or each of its quarters, goes to a target whose distance to
-    /// all its corners is at most `limit`, trying first the target in `slot_of` its triangle.
+    /// replace them): each piece, or each part it is cut into (`divide_onto`), goes to a target
+    /// whose distance to all its corners is at most `limit`, trying first the target in
+    /// `slot_of` its triangle.
     /// An input triangle all of whose pieces are among them is tried whole first, so that the
     /// cuts of earlier collapses heal where they are no longer needed. Returns the pieces per
     /// target, or `None` when some piece fits nowhere.
