@@ -21,8 +21,10 @@
 //!   input triangles near it (`InputSurface::covers`): pieces within `ε` of one input triangle
 //!   pass, and so do pieces whose corners are within `ε − ℓ/√3` of the input, `ℓ` the piece's
 //!   longest edge (the distance to a set is 1-Lipschitz, and every point of a triangle is
-//!   within `ℓ/√3` of a corner); the others are cut into quarters, whose reach shrinks. A
-//!   corner farther than `ε` from the input disproves the triangle at once.
+//!   within `ℓ/√3` of a corner), and pieces over two adjacent input triangles that unfold into
+//!   a convex quadrilateral within the bound (`FlattenedPair`); the others are cut into
+//!   quarters, whose reach shrinks. A corner farther than `ε` from the input disproves the
+//!   triangle at once.
 //!
 //! Distances are computed in f64 against a limit `ε·(1 − 1e-9)`, which keeps the rounding of
 //! the distance computation inside the bound.
@@ -239,6 +241,61 @@ impl Target {
     }
 }
 
+/// Two adjacent targets seen as one convex quadrilateral: the second unfolded into the first's
+/// plane (its far corner projected), when the four corners then make a convex quadrilateral.
+/// The distance to the pair is at most the distance to the quadrilateral plus how far the
+/// projection moved the far corner (a point of the quadrilateral's second half is the image of
+/// a point of the second target moved by at most that), and the distance to a convex set is
+/// convex: so a part whose corners are within `limit − lift` of the quadrilateral is within
+/// `limit` of the pair, without cutting it where it passes from one target to the other.
+struct FlattenedPair {
+    first: Triangle,
+    unfolded: Triangle,
+    lift: f64,
+}
+
+impl FlattenedPair {
+    fn new(t1: &Target, t2: &Target) -> Option<FlattenedPair> {
+        let [e0, e1] = t1.shared_edge(t2)?;
+        let far = |t: &Target| {
+            t.corners
+                .into_iter()
+                .find(|&c| c != e0 && c != e1)
+                .expect("a target sharing an edge has a third corner")
+        };
+        let (f1, f2) = (far(t1), far(t2));
+        let n = t1.unit_normal();
+        if n == DVec3::ZERO {
+            return None;
+        }
+        let height = n.dot(f2 - e0);
+        let f2p = f2 - n * height;
+        // Convex: the far corners on opposite sides of the shared edge, and the edge's ends on
+        // opposite sides of the line between the far corners (all within the first's plane).
+        let side = |a: DVec3, b: DVec3, p: DVec3| (b - a).cross(p - a).dot(n);
+        let convex = side(e0, e1, f1) * side(e0, e1, f2p) < 0.0
+            && side(f1, f2p, e0) * side(f1, f2p, e1) < 0.0;
+        convex.then(|| FlattenedPair {
+            first: t1.triangle,
+            unfolded: Triangle::new(e0, f2p, e1),
+            lift: height.abs(),
+        })
+    }
+
+    /// An upper bound of the distance from any point of `part` to the pair.
+    fn bound(&self, part: Piece) -> f64 {
+        let to_quad = part
+            .iter()
+            .map(|&p| {
+                self.first
+                    .distance_squared(p)
+                    .min(self.unfolded.distance_squared(p))
+            })
+            .fold(0.0f64, f64::max);
+        to_quad.sqrt() + self.lift
+    }
+}
+
 /// The plane through the edge two adjacent targets share that stands across the surface there
 /// (it contains the edge and the mean of their normals): it divides a piece lying over both
 /// into the part over each. `None` when the targets fold onto each other.
@@ -375,8 +432,19 @@ fn divide_onto(
         if farthest2 > limit2 {
             return false;
         }
-        if fallback == Fallback::Lipschitz && farthest2.sqrt() + corner_reach(piece) <= limit {
-            continue;
+        if fallback == Fallback::Lipschitz {
+            if farthest2.sqrt() + corner_reach(piece) <= limit {
+                continue;
+            }
+            let first = nearest[0].1;
+            let pair = nearest
+                .iter()
+                .map(|n| n.1)
+                .find(|&k| k != first)
+                .and_then(|second| FlattenedPair::new(&targets[first], &targets[second]));
+            if pair.is_some_and(|pair| pair.bound(piece) <= limit) {
+                continue;
+            }
         }
         if depth == fallback.max_depth() {
             return false;
@@ -432,6 +500,37 @@ mod tests {
         ];
         assert!(!input.covers(out, 0.1, &mut scratch));
         assert!(input.covers(out, 0.21, &mut scratch));
+    }
+
+    #[test]
+    fn a_folded_pair_bounds_the_distance_to_both_from_above_without_cutting() {
+        // A unit square folded along its diagonal: the second half's far corner lifted 0.02.
+        let (e0, e1) = (DVec3::ZERO, DVec3::new(1.0, 1.0, 0.0));
+        let first = Target::new([e0, DVec3::X, e1], [0, 1, 2]);
+        let second = Target::new([e0, e1, DVec3::new(0.0, 1.0, 0.02)], [0, 2, 3]);
+        let pair = FlattenedPair::new(&first, &second).unwrap();
+        let across = [
+            DVec3::new(0.8, 0.1, 0.05),
+            DVec3::new(0.2, 0.9, 0.05),
+            DVec3::new(0.3, 0.3, 0.05),
+        ];
+        let bound = pair.bound(across);
+        assert!(bound < 0.08, "{bound}");
+        // Sound: no point of the part is farther from the pair than the bound.
+        for i in 0..=20 {
+            for j in 0..=20 - i {
+                let (u, v) = (i as f64 / 20.0, j as f64 / 20.0);
+                let p = across[0] + (across[1] - across[0]) * u + (across[2] - across[0]) * v;
+                let d = first
+                    .distance_squared(p)
+                    .min(second.distance_squared(p))
+                    .sqrt();
+                assert!(d <= bound, "{d} > {bound} at {p}");
+            }
+        }
+        // Folded onto itself (not convex once unfolded): no pair.
+        let onto = Target::new([e0, e1, DVec3::new(0.9, 0.2, 0.01)], [0, 2, 4]);
+        assert!(FlattenedPair::new(&first, &onto).is_none());
     }
 
     #[test]
