@@ -172,6 +172,16 @@ typedef struct BalloonParams {
   uint64_t max_vertices;
   // 0 = all cores; the segmenter's own pool.
   uint32_t threads;
+  // 0 (the default) returns the balloon as it is. A positive distance (mm) simplifies the
+  // result of balloon_segment and balloon_segment_objects so that every
+  // point of the result within this distance of the balloon's surface and every point of
+  // that surface within it of the result (two-sided Hausdorff), still closed, 2-manifold,
+  // outward, free of self-intersections (also between objects), with the same genus and
+  // components. A merged vertex takes the least settled vertex_state (moving before frozen
+  // by a self-intersection before frozen at the border). NaN, negative or infinite values
+  // are BALLOON_INVALID_ARGUMENT. Added last: a caller compiled against an older header
+  // has a smaller struct_size and is refused with BALLOON_PARAMS_SIZE_MISMATCH.
+  double simplify_error_mm;
 } BalloonParams;
 
 // The seeds of one object for balloon_segment_objects: `point_count` points, x, y, z

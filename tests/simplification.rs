@@ -204,7 +204,8 @@ fn segment_simplifies_its_result_and_carries_the_vertex_states_over() {
         .count();
     assert!(moving_after <= moving_before && (moving_before == 0) == (moving_after == 0));
 
-    // The command: a valid mesh, and nothing written for a bound that is not a distance.
+    // The command: a valid mesh, and nothing written for a negative bound (0 is no
+    // simplification, the parameter's default).
     let dir = scratch("segment");
     let (volume, reduced) = (dir.join("v.mha"), dir.join("r.vtp"));
     assert!(balloonseg(&["phantom", "sphere", "--blur", "1.5", "-o"], &[&volume]).0);
@@ -217,7 +218,7 @@ fn segment_simplifies_its_result_and_carries_the_vertex_states_over() {
     assert!(balloonseg(&["check", "--strict"], &[&reduced]).0);
     let never = dir.join("never.vtp");
     let (ok, stderr) = segment("-0.1", &never);
-    assert!(!ok && stderr.contains("positive distance"), "{stderr}");
+    assert!(!ok && stderr.contains("--simplify"), "{stderr}");
     assert!(!never.exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }

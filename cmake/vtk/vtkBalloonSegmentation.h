@@ -148,6 +148,7 @@ public:
   vtkBalloonParameterMacro(MaxReparametrizations, max_reparametrizations, unsigned int);
   vtkBalloonParameterMacro(MaxVertices, max_vertices, vtkTypeUInt64);
   vtkBalloonParameterMacro(Threads, threads, unsigned int); // 0 = all cores
+  vtkBalloonParameterMacro(SimplifyErrorMm, simplify_error_mm, double); // 0 = not simplified
   ///@}
 
   ///@{

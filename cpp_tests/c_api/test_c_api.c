@@ -1,5 +1,6 @@
 /* The C API from C: every function on its success path and on every error path, against
  * include/balloonseg.h and libballoonseg.so only. Exits non-zero when a check fails. */
+#include <stddef.h>
 #include <stdint.h>
 
 #include "test_support.h"
@@ -58,7 +59,7 @@ static void test_params(void) {
 
 static void test_param_table(void) {
   size_t count = balloon_param_count();
-  CHECK(count == 13, "%zu parameters", count);
+  CHECK(count == 14, "%zu parameters", count);
   BalloonParams p;
   EXPECT_OK(balloon_params_default(&p));
   int seen_step_fraction = 0;
@@ -124,7 +125,9 @@ static void test_init_errors(void) {
   EXPECT_ERROR(balloon_init(&v, &p, seed, &s), BALLOON_NULL_POINTER, "volume->data");
 
   BalloonParams wrong = p;
-  wrong.struct_size = sizeof(BalloonParams) - 8;
+  /* The size of the struct before simplify_error_mm was added last: a caller compiled against
+   * that header is refused, not misread. */
+  wrong.struct_size = offsetof(BalloonParams, simplify_error_mm);
   char sizes[64];
   snprintf(sizes, sizeof sizes, "%zu", sizeof(BalloonParams));
   EXPECT_ERROR(balloon_init(&good, &wrong, seed, &s), BALLOON_PARAMS_SIZE_MISMATCH, sizes);
@@ -432,6 +435,54 @@ static void test_marching_cubes(void) {
   free(buffer);
 }
 
+/* simplify_error_mm: checked like every parameter; 0 (the default) leaves the result as it was,
+ * a positive bound gives balloon_segment + balloon_mesh a simplified, still valid surface with
+ * its vertex states. */
+static void test_simplified_segmentation(void) {
+  void *buffer = NULL;
+  BalloonVolume v = ball_volume(&BALL, 1, BALLOON_SCALAR_F32, I_FASTEST, &buffer);
+  BalloonParams p = window_params(2);
+  double seed[3];
+  index_to_world(&BALL, seed);
+  CHECK(p.simplify_error_mm == 0, "off by default: %g", p.simplify_error_mm);
+  EXPECT_ERROR(balloon_params_set(&p, "simplify_error_mm", -1), BALLOON_INVALID_ARGUMENT,
+               "simplify_error_mm is -1");
+  EXPECT_ERROR(balloon_params_set(&p, "simplify_error_mm", NAN), BALLOON_INVALID_ARGUMENT,
+               "at least 0");
+  EXPECT_ERROR(balloon_params_set(&p, "simplify_error_mm", INFINITY), BALLOON_INVALID_ARGUMENT,
+               "finite");
+  CHECK(p.simplify_error_mm == 0, "a refused value changes nothing");
+  BalloonSegmenter *const sentinel = (BalloonSegmenter *)(uintptr_t)0x1234;
+  BalloonSegmenter *s = sentinel;
+  BalloonParams bad = p;
+  bad.simplify_error_mm = -0.5;
+  EXPECT_ERROR(balloon_init(&v, &bad, seed, &s), BALLOON_INVALID_ARGUMENT, "simplify_error_mm");
+  CHECK(s == sentinel, "no output is written on failure");
+
+  Flat full = segment_copy(&v, &p, seed);
+  EXPECT_OK(balloon_params_set(&p, "simplify_error_mm", 0.3));
+  CHECK(p.simplify_error_mm == 0.3, "set by name reaches the field: %g", p.simplify_error_mm);
+  s = NULL;
+  EXPECT_OK(balloon_init(&v, &p, seed, &s));
+  EXPECT_OK(balloon_segment(s));
+  BalloonMesh m;
+  EXPECT_OK(balloon_mesh(s, &m));
+  expect_valid_spheres(&m, 1, "simplified balloon");
+  CHECK(m.triangle_count > 0 && m.triangle_count < full.triangle_count,
+        "%zu triangles simplified, %zu before", m.triangle_count, full.triangle_count);
+  CHECK(m.vertex_state != NULL, "the simplified mesh has vertex states");
+  size_t at_border = 0;
+  for (size_t i = 0; m.vertex_state && i < m.point_count; ++i) {
+    CHECK(m.vertex_state[i] <= BALLOON_VERTEX_FROZEN_BY_SELF_INTERSECTION, "state %u",
+          m.vertex_state[i]);
+    at_border += m.vertex_state[i] == BALLOON_VERTEX_FROZEN_AT_BORDER;
+  }
+  CHECK(at_border > m.point_count / 2, "%zu of %zu at the border", at_border, m.point_count);
+  balloon_free(s);
+  flat_free(&full);
+  free(buffer);
+}
+
 /* Two triangles crossing each other, and a tetrahedron. */
 static const double CROSS_POINTS[] = {0, 0, 0, 2, 0, 0, 0, 2, 0, 0.5, 0.5, -1, 0.5, 0.5, 1, 1.5, 1.5, 0};
 static const uint32_t CROSS_TRIANGLES[] = {0, 1, 2, 3, 4, 5};
@@ -659,6 +710,7 @@ int main(void) {
   test_types_and_layouts();
   test_two_seeds_and_leak();
   test_marching_cubes();
+  test_simplified_segmentation();
   test_mesh_check_and_self_intersections();
   test_objects();
   return report("test_c_api");

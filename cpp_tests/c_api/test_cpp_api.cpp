@@ -141,7 +141,8 @@ void every_function_once() {
     EXPECT_OK(balloon_param_info(i, &info));
     names.emplace_back(info.name);
   }
-  CHECK(names.size() == 13 && names.front() == "reference_intensity" && names.back() == "threads",
+  CHECK(names.size() == 14 && names.front() == "reference_intensity" &&
+            names.back() == "simplify_error_mm",
         "%zu parameters", names.size());
   EXPECT_OK(balloon_params_set(&p, "reference_intensity", 200));
   EXPECT_OK(balloon_params_set(&p, "tolerance", 100));

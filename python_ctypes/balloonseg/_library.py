@@ -85,6 +85,7 @@ class BalloonParams(Structure):
         ("max_reparametrizations", c_uint32),
         ("max_vertices", c_uint64),
         ("threads", c_uint32),
+        ("simplify_error_mm", c_double),
     ]
 
 

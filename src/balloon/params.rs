@@ -29,6 +29,8 @@ pub struct BalloonParams {
     pub max_reparametrizations: u32,
     pub max_vertices: usize,
     pub threads: usize,
+    /// 0 (the default) returns the balloon as it is; see [`BalloonParams::simplification`].
+    pub simplify_error_mm: f64,
 }
 
 impl Default for BalloonParams {
@@ -45,6 +47,7 @@ impl Default for BalloonParams {
             max_reparametrizations: 4,
             max_vertices: 1_000_000,
             threads: 0,
+            simplify_error_mm: 0.0,
         }
     }
 }
@@ -235,6 +238,20 @@ pub const PARAMETERS: &[Parameter] = &[
         get: |p| Some(p.threads as f64),
         set: |p, v| p.threads = v as usize,
     },
+    Parameter {
+        name: "simplify_error_mm",
+        flag: "simplify",
+        kind: ParamKind::Real,
+        min: Included(0.0),
+        max: Unbounded,
+        unset: None,
+        doc: "Simplify the result within this distance (mm) of the balloon's surface, both ways \
+              (the two-sided Hausdorff distance), keeping every guarantee of the output; a \
+              merged vertex takes the least settled vertex_state. 0 returns the balloon as it \
+              is.",
+        get: |p| Some(p.simplify_error_mm),
+        set: |p, v| p.simplify_error_mm = v,
+    },
 ];
 
 /// NaN, the unset value by name, as `None`.
@@ -383,6 +400,12 @@ impl BalloonParams {
     pub fn set(&mut self, name: &str, value: f64) -> Result<()> {
         parameter(name)?.set(self, value)
     }
+
+    /// The bound of the simplification the result goes through, `None` when it is returned as
+    /// the balloon left it (`simplify_error_mm` is 0).
+    pub fn simplification(&self) -> Option<f64> {
+        (self.simplify_error_mm > 0.0).then_some(self.simplify_error_mm)
+    }
 }
 
 /// A worker-thread count for a pool of its own (0 = all cores), checked as the `threads`
@@ -451,6 +474,13 @@ mod tests {
                 },
             ),
             (
+                "simplify_error_mm",
+                BalloonParams {
+                    simplify_error_mm: f64::NAN,
+                    ..d()
+                },
+            ),
+            (
                 "bending_weight",
                 BalloonParams {
                     weights: ForceWeights {
@@ -493,6 +523,10 @@ mod tests {
             message("edge_length_mm", -1.0),
             "edge_length_mm is -1; give a finite number greater than 0, or leave it unset (NaN) \
              for the mean voxel spacing"
+        );
+        assert_eq!(
+            message("simplify_error_mm", -0.1),
+            "simplify_error_mm is -0.1; give a finite number of at least 0"
         );
         assert_eq!(
             message("inflation_weight", f64::NAN),

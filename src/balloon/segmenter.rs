@@ -29,6 +29,7 @@ use crate::balloon::image_model::thin_layer;
 use crate::balloon::inflation::stepper::Scratch;
 use crate::balloon::inflation::{Inflation, FIRST_LEAK_CHECK};
 use crate::balloon::objects::obstacle::Obstacle;
+use crate::balloon::objects::simplify_with_states;
 use crate::balloon::params::BalloonParams;
 use crate::balloon::progress::{Phase, PhaseSeconds, ProgressCallback};
 use crate::balloon::reparametrization::AfterReparametrization;
@@ -420,10 +421,22 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     /// it is at equilibrium again (at least `refinement_iterations` steps, at most what is left
     /// of `max_iterations`): contacts freeze the parts of the front that meet, and the rest of
     /// the front, frozen with them before the re-parametrisation, must go on growing.
+    ///
+    /// With `simplify_error_mm` set, the mesh returned is the final one simplified within that
+    /// distance (both ways), with the vertex states merged; the balloon itself (`mesh`) stays
+    /// as it was.
     pub fn segment(&mut self) -> Result<(TriMesh, Vec<VertexState>)> {
         let budget = self.params.max_iterations;
         let used = self.inflate(Phase::Inflation, budget)?;
-        self.finish(budget - used)
+        let (mesh, states) = self.finish(budget - used)?;
+        match self.params.simplification() {
+            Some(max_error) => {
+                let (simplified, states) = simplify_with_states(&mesh, &states, max_error)
+                    .map_err(|e| e.context("cannot simplify the segmentation"))?;
+                Ok((simplified.mesh, states))
+            }
+            None => Ok((mesh, states)),
+        }
     }
 
     /// After an inflation, with `budget` steps of `max_iterations` left: the contacts frozen,

@@ -35,6 +35,16 @@ pub struct BalloonParams {
     pub max_vertices: u64,
     /// 0 = all cores; the segmenter's own pool.
     pub threads: u32,
+    /// 0 (the default) returns the balloon as it is. A positive distance (mm) simplifies the
+    /// result of balloon_segment and balloon_segment_objects so that every
+    /// point of the result within this distance of the balloon's surface and every point of
+    /// that surface within it of the result (two-sided Hausdorff), still closed, 2-manifold,
+    /// outward, free of self-intersections (also between objects), with the same genus and
+    /// components. A merged vertex takes the least settled vertex_state (moving before frozen
+    /// by a self-intersection before frozen at the border). NaN, negative or infinite values
+    /// are BALLOON_INVALID_ARGUMENT. Added last: a caller compiled against an older header
+    /// has a smaller struct_size and is refused with BALLOON_PARAMS_SIZE_MISMATCH.
+    pub simplify_error_mm: f64,
 }
 
 fn optional(value: f64) -> Option<f64> {
@@ -55,6 +65,7 @@ impl From<&balloon::BalloonParams> for BalloonParams {
             max_reparametrizations,
             max_vertices,
             threads,
+            simplify_error_mm,
         } = p.clone();
         BalloonParams {
             struct_size: size_of::<BalloonParams>(),
@@ -71,6 +82,7 @@ impl From<&balloon::BalloonParams> for BalloonParams {
             max_reparametrizations,
             max_vertices: max_vertices as u64,
             threads: u32::try_from(threads).unwrap_or(u32::MAX),
+            simplify_error_mm,
         }
     }
 }
@@ -100,6 +112,7 @@ impl BalloonParams {
             max_reparametrizations: self.max_reparametrizations,
             max_vertices,
             threads: self.threads as usize,
+            simplify_error_mm: self.simplify_error_mm,
         })
     }
 }
@@ -192,6 +205,7 @@ mod tests {
             max_reparametrizations: 9,
             max_vertices: 100,
             threads: 2,
+            simplify_error_mm: 0.25,
         };
         assert_eq!(BalloonParams::from(&given).to_rust().unwrap(), given);
     }

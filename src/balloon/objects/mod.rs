@@ -24,6 +24,7 @@ mod partition;
 mod simplified;
 
 pub use simplified::simplify_objects;
+pub(in crate::balloon) use simplified::simplify_with_states;
 
 use std::cell::RefCell;
 use std::collections::HashMap;
@@ -128,13 +129,15 @@ pub fn segment_objects<'v, 'p>(
         });
     }
     share_progress(&mut members, progress);
-    let results = if members.len() == 1 {
+    // One balloon's `segment` simplifies its own result; the objects are simplified together,
+    // below, so that their simplified surfaces do not cross.
+    let (results, together) = if members.len() == 1 {
         let (mesh, states) = members[0].segmenter.segment()?;
-        vec![(mesh, states)]
+        (vec![(mesh, states)], None)
     } else {
-        compete(&mut members)?
+        (compete(&mut members)?, params.simplification())
     };
-    Ok(members
+    let mut objects: Vec<SegmentedObject> = members
         .into_iter()
         .zip(results)
         .filter_map(|(member, (mesh, states))| {
@@ -146,7 +149,12 @@ pub fn segment_objects<'v, 'p>(
                 stats: member.segmenter.stats().clone(),
             })
         })
-        .collect())
+        .collect();
+    if let Some(max_error) = together {
+        simplify_objects(&mut objects, max_error)
+            .map_err(|e| e.context("cannot simplify the segmentation"))?;
+    }
+    Ok(objects)
 }
 
 struct Member<'v, 'p> {

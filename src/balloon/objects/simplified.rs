@@ -1,12 +1,13 @@
 //! The segmentation's optional last step, the paper's "error preserving mesh simplification":
 //! the objects' meshes reduced by `simplification::simplify`, all in one mesh so that no two
 //! objects' simplified surfaces cross (the self-intersection check sees them all), then split
-//! back into objects with their vertex states carried over.
+//! back into objects with their vertex states carried over. One balloon's result
+//! (`Segmenter::segment`) goes through the same [`simplify_with_states`].
 
 use crate::balloon::surface::VertexState;
 use crate::error::Result;
 use crate::mesh::TriMesh;
-use crate::simplification::{simplify, NO_VERTEX};
+use crate::simplification::{simplify, Simplified, NO_VERTEX};
 
 use super::SegmentedObject;
 
@@ -20,6 +21,30 @@ fn settledness(state: VertexState) -> u8 {
     }
 }
 
+/// `mesh` simplified within `max_error_mm` (both ways), with the state of each of its
+/// vertices: the least settled (`settledness`) of the input vertices merged into it, given one
+/// state per input point in `states`. Errors as `simplify`.
+pub(in crate::balloon) fn simplify_with_states(
+    mesh: &TriMesh,
+    states: &[VertexState],
+    max_error_mm: f64,
+) -> Result<(Simplified, Vec<VertexState>)> {
+    let simplified = simplify(mesh, max_error_mm)?;
+    let mut merged: Vec<Option<VertexState>> = vec![None; simplified.mesh.points().len()];
+    for (&v, &s) in simplified.vertex_map.iter().zip(states) {
+        if v == NO_VERTEX {
+            continue;
+        }
+        let slot = &mut merged[v as usize];
+        match slot {
+            Some(old) if settledness(*old) <= settledness(s) => {}
+            _ => *slot = Some(s),
+        }
+    }
+    let merged = merged.into_iter().map(Option::unwrap_or_default).collect();
+    Ok((simplified, merged))
+}
+
 /// Replaces every object's mesh by its simplification within `max_error_mm` (both ways), with
 /// its vertex states merged as `settledness` says. Errors as `simplify`; the objects are left
 /// as they were then.
@@ -28,28 +53,25 @@ pub fn simplify_objects(objects: &mut [SegmentedObject], max_error_mm: f64) -> R
         return Ok(());
     };
     let mut all = first.mesh.clone();
+    let mut states = first.states.clone();
     for object in &objects[1..] {
         all.append(&object.mesh)?;
+        states.extend_from_slice(&object.states);
     }
-    let simplified = simplify(&all, max_error_mm)?;
+    let (simplified, state) = simplify_with_states(&all, &states, max_error_mm)?;
     let count = simplified.mesh.points().len();
+    // A collapse never joins two components, so the input vertices merged into one output
+    // vertex all belong to one object.
     let mut owner = vec![usize::MAX; count];
-    let mut state: Vec<Option<VertexState>> = vec![None; count];
     let mut offset = 0;
     for (k, object) in objects.iter().enumerate() {
-        for (i, &s) in object.states.iter().enumerate() {
-            let v = simplified.vertex_map[offset + i];
-            if v == NO_VERTEX {
-                continue;
-            }
-            owner[v as usize] = k;
-            let slot = &mut state[v as usize];
-            match slot {
-                Some(old) if settledness(*old) <= settledness(s) => {}
-                _ => *slot = Some(s),
+        let points = object.mesh.points().len();
+        for &v in &simplified.vertex_map[offset..offset + points] {
+            if v != NO_VERTEX {
+                owner[v as usize] = k;
             }
         }
-        offset += object.mesh.points().len();
+        offset += points;
     }
     let (points, triangles) = (simplified.mesh.points(), simplified.mesh.triangles());
     let mut split = Vec::with_capacity(objects.len());
@@ -61,7 +83,7 @@ pub fn simplify_objects(objects: &mut [SegmentedObject], max_error_mm: f64) -> R
                 if local[v as usize] == NO_VERTEX {
                     local[v as usize] = mine.len() as u32;
                     mine.push(points[v as usize]);
-                    states.push(state[v as usize].unwrap_or_default());
+                    states.push(state[v as usize]);
                 }
                 local[v as usize]
             }));

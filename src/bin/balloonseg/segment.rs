@@ -8,8 +8,8 @@ use std::time::Instant;
 
 use balloonseg::balloon::image_model::seed_statistics::{Neighbours, RAYS};
 use balloonseg::balloon::{
-    segment_objects, simplify_objects, ObjectSeeds, ObjectsRequest, Phase, ProgressCallback,
-    Region, SegmentationStats, SegmentedObject, VertexState,
+    segment_objects, ObjectSeeds, ObjectsRequest, Phase, ProgressCallback, Region,
+    SegmentationStats, SegmentedObject, VertexState,
 };
 use balloonseg::io::{self, CellData, PointData, PointValues};
 use balloonseg::render::{self, RenderObject, RenderOptions};
@@ -57,11 +57,6 @@ pub struct Args {
     /// violet, green, orange, ... in increasing label order), with a legend of their labels.
     #[arg(long)]
     png: Option<PathBuf>,
-    /// Simplify the result within this distance (mm) of the balloon's surface, both ways,
-    /// keeping every guarantee of the output (see `balloonseg simplify`); vertex states are
-    /// carried over (a merged vertex takes the least settled state).
-    #[arg(long = "simplify", value_name = "MM", allow_negative_numbers = true)]
-    simplify_mm: Option<f64>,
     /// The balloon's parameters, one flag each (see docs/interfaces.md).
     #[command(flatten)]
     params: ParamFlags,
@@ -144,11 +139,6 @@ impl Args {
 
 pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
     let start = Instant::now();
-    if let Some(mm) = args.simplify_mm.filter(|mm| !(mm.is_finite() && *mm > 0.0)) {
-        return Err(Error::invalid_argument(format!(
-            "--simplify {mm}: give a positive distance in mm, e.g. a tenth of the voxel size"
-        )));
-    }
     let per_object = args.output.to_string_lossy().contains(LABEL_PLACEHOLDER);
     let image = io::read_image(&args.input)?;
     let geometry = *image.geometry();
@@ -168,11 +158,7 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
     if std::io::stderr().is_terminal() {
         eprintln!();
     }
-    let mut objects = result?;
-    if let Some(max_error) = args.simplify_mm {
-        simplify_objects(&mut objects, max_error)
-            .map_err(|e| e.context("cannot simplify the segmentation"))?;
-    }
+    let objects = result?;
     for object in &objects {
         let name = if objects.len() > 1 {
             format!("object {}: ", object.label)
