@@ -11,6 +11,10 @@
 #include <stddef.h>
 #include <stdint.h>
 
+// In the vertex map of a simplified mesh (balloon_trimesh_vertex_map): an input point that no
+// triangle uses.
+#define BALLOON_NO_VERTEX 4294967295
+
 // Incompatible ABI changes; also the SONAME (libballoonseg.so.MAJOR).
 #define BALLOON_VERSION_MAJOR 0
 
@@ -30,7 +34,9 @@ typedef enum BalloonStatus {
   BALLOON_INVALID_ARGUMENT = 2,
   // Dims, strides, spacing, direction or scalar type of a volume are unusable.
   BALLOON_INVALID_VOLUME = 3,
-  // A mesh given to a kernel is malformed (index out of range, non-finite point).
+  // A mesh given to a kernel is malformed (index out of range, non-finite point), or unfit
+  // for it (balloon_simplify: empty, open, non-manifold, inconsistently oriented or
+  // self-intersecting).
   BALLOON_INVALID_MESH = 4,
   // A struct's `struct_size` differs from its size in this library (a caller compiled
   // against another version of the header).
@@ -278,6 +284,45 @@ enum BalloonStatus balloon_marching_cubes(const struct BalloonVolume *volume,
 // # Safety
 // `m` is a live BalloonTriMesh; `out` is writable.
 enum BalloonStatus balloon_trimesh_view(const struct BalloonTriMesh *m, struct BalloonMesh *out);
+
+// The caller's closed mesh (points: 3 doubles each, triangles: 3 indices each, read during the
+// call only) reduced to as few triangles as edge collapses can reach while the two-sided
+// Hausdorff distance to it stays at most `max_error_mm`: every point of the result lies within
+// `max_error_mm` of the input surface and every point of the input surface within
+// `max_error_mm` of the result (proved for every point, not sampled). The result stays closed,
+// 2-manifold, oriented as the input (outward stays outward), free of self-intersections, with
+// the same genus and number of components; no triangle it makes has an angle under 10 degrees.
+// Deterministic; runs on the calling thread.
+//
+// Errors: BALLOON_NULL_POINTER for a NULL `out`, or NULL arrays with non-zero counts;
+// BALLOON_INVALID_ARGUMENT when `max_error_mm` is not a positive finite distance;
+// BALLOON_INVALID_MESH for a malformed mesh (index out of range, non-finite point) or one the
+// bound cannot be kept on: empty, open, non-manifold, inconsistently oriented, or with
+// self-intersecting or degenerate triangles (the message says which). On success `*out`
+// receives a mesh to view with balloon_trimesh_view (vertex_state NULL) and
+// balloon_trimesh_vertex_map, and to release with balloon_trimesh_free; on failure `*out` is
+// not written.
+//
+// # Safety
+// The arrays hold the counts given; `out` is writable.
+enum BalloonStatus balloon_simplify(const double *points,
+                                    size_t point_count,
+                                    const uint32_t *triangles,
+                                    size_t triangle_count,
+                                    double max_error_mm,
+                                    struct BalloonTriMesh **out);
+
+// Where the input points of balloon_simplify went: `*map_out` receives `*count_out` indices,
+// one per input point, each the vertex of `m` that point was merged into, or
+// BALLOON_NO_VERTEX for a point no input triangle used; for carrying per-point data (labels,
+// states, scalars) over to the simplified mesh. A mesh made by another kernel has no map
+// (NULL and 0). The array belongs to `m` and stays valid until balloon_trimesh_free.
+//
+// # Safety
+// `m` is a live BalloonTriMesh; `map_out` and `count_out` are writable.
+enum BalloonStatus balloon_trimesh_vertex_map(const struct BalloonTriMesh *m,
+                                              const uint32_t **map_out,
+                                              size_t *count_out);
 
 // Releases a kernel mesh; NULL is fine.
 //

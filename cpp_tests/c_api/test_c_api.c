@@ -435,6 +435,92 @@ static void test_marching_cubes(void) {
   free(buffer);
 }
 
+/* Two triangles crossing each other, and a tetrahedron. */
+static const double CROSS_POINTS[] = {0, 0, 0, 2, 0, 0, 0, 2, 0, 0.5, 0.5, -1, 0.5, 0.5, 1, 1.5, 1.5, 0};
+static const uint32_t CROSS_TRIANGLES[] = {0, 1, 2, 3, 4, 5};
+static const double TET_POINTS[] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+static const uint32_t TET_TRIANGLES[] = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+
+/* balloon_simplify on the marching-cubes sphere of a ball (closed, oriented inward): a valid
+ * sphere of fewer triangles, oriented as it was, with a vertex map that covers it; every bad
+ * input is its status and message, and *out is left alone. */
+static void test_simplify(void) {
+  void *buffer = NULL;
+  BalloonVolume v = ball_volume(&BALL, 1, BALLOON_SCALAR_F32, I_FASTEST, &buffer);
+  BalloonTriMesh *sphere = NULL;
+  BalloonMesh in;
+  EXPECT_OK(balloon_marching_cubes(&v, 100.0, 1, &sphere));
+  EXPECT_OK(balloon_trimesh_view(sphere, &in));
+  const uint32_t *map = (const uint32_t *)&in;
+  size_t count = 999;
+  EXPECT_OK(balloon_trimesh_vertex_map(sphere, &map, &count));
+  CHECK(map == NULL && count == 0, "marching cubes has no vertex map");
+
+  BalloonTriMesh *const sentinel = (BalloonTriMesh *)(uintptr_t)0x1234;
+  BalloonTriMesh *out = sentinel;
+  const double *p = in.points;
+  const uint32_t *t = in.triangles;
+  size_t np = in.point_count, nt = in.triangle_count;
+  EXPECT_ERROR(balloon_simplify(p, np, t, nt, 0.2, NULL), BALLOON_NULL_POINTER, "out");
+  EXPECT_ERROR(balloon_simplify(NULL, np, t, nt, 0.2, &out), BALLOON_NULL_POINTER, "points");
+  EXPECT_ERROR(balloon_simplify(p, np, NULL, nt, 0.2, &out), BALLOON_NULL_POINTER, "triangles");
+  const double bad_bounds[4] = {0.0, -1.0, NAN, INFINITY};
+  for (int i = 0; i < 4; ++i)
+    EXPECT_ERROR(balloon_simplify(p, np, t, nt, bad_bounds[i], &out), BALLOON_INVALID_ARGUMENT,
+                 "positive distance");
+  EXPECT_ERROR(balloon_simplify(p, np, t, nt - 1, 0.2, &out), BALLOON_INVALID_MESH,
+               "not closed");
+  EXPECT_ERROR(balloon_simplify(CROSS_POINTS, 6, CROSS_TRIANGLES, 2, 0.2, &out),
+               BALLOON_INVALID_MESH, "not closed");
+  EXPECT_ERROR(balloon_simplify(p, np - 1, t, nt, 0.2, &out), BALLOON_INVALID_MESH,
+               "but the mesh has");
+  EXPECT_ERROR(balloon_simplify(NULL, 0, NULL, 0, 0.2, &out), BALLOON_INVALID_MESH,
+               "no triangles");
+  CHECK(out == sentinel, "*out is written only on success");
+
+  EXPECT_OK(balloon_simplify(p, np, t, nt, 0.2, &out));
+  BalloonMesh m;
+  EXPECT_OK(balloon_trimesh_view(out, &m));
+  BalloonMeshReport before = check_mesh(&in), after = check_mesh(&m);
+  CHECK(after.closed && after.manifold && after.oriented && after.outward == before.outward,
+        "closed %d manifold %d oriented %d outward %d (before %d)", after.closed, after.manifold,
+        after.oriented, after.outward, before.outward);
+  CHECK(after.self_intersecting_pairs == 0 && after.genus == before.genus &&
+            after.components == before.components,
+        "%zu pairs, genus %lld, %zu components", after.self_intersecting_pairs,
+        (long long)after.genus, after.components);
+  CHECK(m.vertex_state == NULL && m.triangle_count < nt / 2, "%zu of %zu triangles",
+        m.triangle_count, nt);
+  /* A 0.2 mm bound both ways changes the enclosed volume by less than the area times 0.2. */
+  CHECK(fabs(after.volume_mm3 - before.volume_mm3) < 0.2 * before.area_mm2, "volume %g vs %g",
+        after.volume_mm3, before.volume_mm3);
+
+  EXPECT_ERROR(balloon_trimesh_vertex_map(NULL, &map, &count), BALLOON_NULL_POINTER, "m");
+  EXPECT_ERROR(balloon_trimesh_vertex_map(out, NULL, &count), BALLOON_NULL_POINTER, "map_out");
+  EXPECT_ERROR(balloon_trimesh_vertex_map(out, &map, NULL), BALLOON_NULL_POINTER, "count_out");
+  EXPECT_OK(balloon_trimesh_vertex_map(out, &map, &count));
+  CHECK(map != NULL && count == np, "a map of %zu entries for %zu points", count, np);
+  char *hit = (char *)calloc(m.point_count + 1, 1);
+  size_t unused = 0, outside = 0;
+  for (size_t i = 0; map && i < count; ++i) {
+    if (map[i] == BALLOON_NO_VERTEX)
+      ++unused;
+    else if (map[i] >= m.point_count)
+      ++outside;
+    else
+      hit[map[i]] = 1;
+  }
+  size_t missed = 0;
+  for (size_t i = 0; i < m.point_count; ++i) missed += !hit[i];
+  CHECK(unused == 0 && outside == 0 && missed == 0,
+        "%zu points unused, %zu mapped outside, %zu output vertices without an input", unused,
+        outside, missed);
+  free(hit);
+  balloon_trimesh_free(out);
+  balloon_trimesh_free(sphere);
+  free(buffer);
+}
+
 /* simplify_error_mm: checked like every parameter; 0 (the default) leaves the result as it was,
  * a positive bound gives balloon_segment + balloon_mesh a simplified, still valid surface with
  * its vertex states. */
@@ -483,11 +569,6 @@ static void test_simplified_segmentation(void) {
   free(buffer);
 }
 
-/* Two triangles crossing each other, and a tetrahedron. */
-static const double CROSS_POINTS[] = {0, 0, 0, 2, 0, 0, 0, 2, 0, 0.5, 0.5, -1, 0.5, 0.5, 1, 1.5, 1.5, 0};
-static const uint32_t CROSS_TRIANGLES[] = {0, 1, 2, 3, 4, 5};
-static const double TET_POINTS[] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
-static const uint32_t TET_TRIANGLES[] = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
 
 static void test_mesh_check_and_self_intersections(void) {
   BalloonMeshReport r;
@@ -710,6 +791,7 @@ int main(void) {
   test_types_and_layouts();
   test_two_seeds_and_leak();
   test_marching_cubes();
+  test_simplify();
   test_simplified_segmentation();
   test_mesh_check_and_self_intersections();
   test_objects();

@@ -186,6 +186,22 @@ void every_function_once() {
   EXPECT_OK(balloon_self_intersections(m.points, m.point_count, m.triangles, m.triangle_count,
                                        nullptr, 0, &count));
   CHECK(count == 0, "%zu pairs", count);
+  BalloonTriMesh *raw_simplified = nullptr;
+  EXPECT_OK(balloon_simplify(m.points, m.point_count, m.triangles, m.triangle_count, 0.2,
+                             &raw_simplified));
+  TriMesh simplified(raw_simplified);
+  const uint32_t *map = nullptr;
+  size_t map_count = 0;
+  EXPECT_OK(balloon_trimesh_vertex_map(simplified.get(), &map, &map_count));
+  CHECK(map != nullptr && map_count == m.point_count, "%zu map entries", map_count);
+  BalloonMesh reduced;
+  EXPECT_OK(balloon_trimesh_view(simplified.get(), &reduced));
+  expect_inward_sphere(&reduced, "simplified marching cubes");
+  CHECK(reduced.triangle_count < m.triangle_count, "%zu of %zu triangles",
+        reduced.triangle_count, m.triangle_count);
+  EXPECT_ERROR(balloon_simplify(m.points, m.point_count, m.triangles, m.triangle_count, -1.0,
+                                &raw_simplified),
+               BALLOON_INVALID_ARGUMENT, "positive distance");
 
   BalloonObjectSeeds object = {5, seed, 1};
   BalloonObjects *raw_objects = nullptr;

@@ -1,6 +1,7 @@
-//! The geometry kernels on their own: marching cubes into a library-owned `BalloonTriMesh`,
-//! the mesh checks, and the self-intersection search, which copies its pairs into the
-//! caller's array with the size-query protocol (`BALLOON_BUFFER_TOO_SMALL` with the total).
+//! The geometry kernels on their own: marching cubes and error-bounded simplification into a
+//! library-owned `BalloonTriMesh`, the mesh checks, and the self-intersection search, which
+//! copies its pairs into the caller's array with the size-query protocol
+//! (`BALLOON_BUFFER_TOO_SMALL` with the total).
 
 use std::mem::size_of;
 
@@ -15,10 +16,20 @@ use crate::marching_cubes::marching_cubes;
 use crate::mesh::TriMesh;
 use crate::mesh_checks;
 use crate::self_intersection::self_intersections;
+use crate::simplification::{simplify, Simplified};
+
+/// In the vertex map of a simplified mesh (balloon_trimesh_vertex_map): an input point that no
+/// triangle uses.
+pub const BALLOON_NO_VERTEX: u32 = 0xFFFFFFFF;
+
+// Written as a literal for cbindgen, which does not evaluate paths.
+const _: () = assert!(BALLOON_NO_VERTEX == crate::simplification::NO_VERTEX);
 
 /// A mesh made by a kernel (opaque), owned by the caller until balloon_trimesh_free.
 pub struct BalloonTriMesh {
     mesh: TriMesh,
+    /// For balloon_simplify's result, the output vertex of each input point; empty otherwise.
+    vertex_map: Vec<u32>,
 }
 
 /// What balloon_mesh_check measures about a mesh.
@@ -69,7 +80,10 @@ pub unsafe extern "C" fn balloon_marching_cubes(
             .build()
             .map_err(|e| Error::invalid_argument(format!("cannot start {threads} threads: {e}")))?;
         let mesh = pool.install(|| marching_cubes(&volume, level))?;
-        let owned = Box::new(BalloonTriMesh { mesh });
+        let owned = Box::new(BalloonTriMesh {
+            mesh,
+            vertex_map: Vec::new(),
+        });
         // SAFETY: non-NULL and writable.
         unsafe { out.write(Box::into_raw(owned)) };
         Ok(())
@@ -91,6 +105,79 @@ pub unsafe extern "C" fn balloon_trimesh_view(
         require(out, "out")?;
         // SAFETY: non-NULL and writable.
         unsafe { out.write(view(&m.mesh, std::ptr::null())) };
+        Ok(())
+    })
+}
+
+/// The caller's closed mesh (points: 3 doubles each, triangles: 3 indices each, read during the
+/// call only) reduced to as few triangles as edge collapses can reach while the two-sided
+/// Hausdorff distance to it stays at most `max_error_mm`: every point of the result lies within
+/// `max_error_mm` of the input surface and every point of the input surface within
+/// `max_error_mm` of the result (proved for every point, not sampled). The result stays closed,
+/// 2-manifold, oriented as the input (outward stays outward), free of self-intersections, with
+/// the same genus and number of components; no triangle it makes has an angle under 10 degrees.
+/// Deterministic; runs on the calling thread.
+///
+/// Errors: BALLOON_NULL_POINTER for a NULL `out`, or NULL arrays with non-zero counts;
+/// BALLOON_INVALID_ARGUMENT when `max_error_mm` is not a positive finite distance;
+/// BALLOON_INVALID_MESH for a malformed mesh (index out of range, non-finite point) or one the
+/// bound cannot be kept on: empty, open, non-manifold, inconsistently oriented, or with
+/// self-intersecting or degenerate triangles (the message says which). On success `*out`
+/// receives a mesh to view with balloon_trimesh_view (vertex_state NULL) and
+/// balloon_trimesh_vertex_map, and to release with balloon_trimesh_free; on failure `*out` is
+/// not written.
+///
+/// # Safety
+/// The arrays hold the counts given; `out` is writable.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_simplify(
+    points: *const f64,
+    point_count: usize,
+    triangles: *const u32,
+    triangle_count: usize,
+    max_error_mm: f64,
+    out: *mut *mut BalloonTriMesh,
+) -> BalloonStatus {
+    run(|| {
+        require(out, "out")?;
+        // SAFETY: by the caller's promise.
+        let mesh = unsafe { mesh_from_c(points, point_count, triangles, triangle_count)? };
+        let Simplified { mesh, vertex_map } = simplify(&mesh, max_error_mm)?;
+        let owned = Box::new(BalloonTriMesh { mesh, vertex_map });
+        // SAFETY: non-NULL and writable.
+        unsafe { out.write(Box::into_raw(owned)) };
+        Ok(())
+    })
+}
+
+/// Where the input points of balloon_simplify went: `*map_out` receives `*count_out` indices,
+/// one per input point, each the vertex of `m` that point was merged into, or
+/// BALLOON_NO_VERTEX for a point no input triangle used; for carrying per-point data (labels,
+/// states, scalars) over to the simplified mesh. A mesh made by another kernel has no map
+/// (NULL and 0). The array belongs to `m` and stays valid until balloon_trimesh_free.
+///
+/// # Safety
+/// `m` is a live BalloonTriMesh; `map_out` and `count_out` are writable.
+#[no_mangle]
+pub unsafe extern "C" fn balloon_trimesh_vertex_map(
+    m: *const BalloonTriMesh,
+    map_out: *mut *const u32,
+    count_out: *mut usize,
+) -> BalloonStatus {
+    run(|| {
+        // SAFETY: by the caller's promise.
+        let m = unsafe { m.as_ref() }.ok_or_else(|| Failure::null("m"))?;
+        require(map_out, "map_out")?;
+        require(count_out, "count_out")?;
+        let map = match m.vertex_map.as_slice() {
+            [] => std::ptr::null(),
+            map => map.as_ptr(),
+        };
+        // SAFETY: both non-NULL and writable.
+        unsafe {
+            map_out.write(map);
+            count_out.write(m.vertex_map.len());
+        }
         Ok(())
     })
 }

@@ -13,7 +13,8 @@
 //! - **Panics** never cross the boundary: every body runs in `boundary::run`, which turns a panic
 //!   into `BALLOON_PANIC`. After it, only `balloon_free` is safe on the handle.
 //! - **Ownership and lifetimes.** `BalloonSegmenter`, `BalloonTriMesh` and `BalloonObjects` are
-//!   opaque, made by `balloon_init` / `balloon_marching_cubes` / `balloon_segment_objects`,
+//!   opaque, made by `balloon_init` / `balloon_marching_cubes` or `balloon_simplify` /
+//!   `balloon_segment_objects`,
 //!   released once by `balloon_free` / `balloon_trimesh_free` / `balloon_objects_free` (all
 //!   accept NULL); never by `free()`. The voxels of a
 //!   `BalloonVolume` are borrowed, not copied: until `balloon_free` for a segmenter, for the
@@ -44,8 +45,9 @@ mod volume;
 
 pub use boundary::balloon_last_error_message;
 pub use kernels::{
-    balloon_marching_cubes, balloon_mesh_check, balloon_self_intersections, balloon_trimesh_free,
-    balloon_trimesh_view, BalloonMeshReport, BalloonTriMesh,
+    balloon_marching_cubes, balloon_mesh_check, balloon_self_intersections, balloon_simplify,
+    balloon_trimesh_free, balloon_trimesh_vertex_map, balloon_trimesh_view, BalloonMeshReport,
+    BalloonTriMesh, BALLOON_NO_VERTEX,
 };
 pub use mesh::BalloonMesh;
 pub use objects::{

@@ -20,7 +20,9 @@ pub enum BalloonStatus {
     BALLOON_INVALID_ARGUMENT = 2,
     /// Dims, strides, spacing, direction or scalar type of a volume are unusable.
     BALLOON_INVALID_VOLUME = 3,
-    /// A mesh given to a kernel is malformed (index out of range, non-finite point).
+    /// A mesh given to a kernel is malformed (index out of range, non-finite point), or unfit
+    /// for it (balloon_simplify: empty, open, non-manifold, inconsistently oriented or
+    /// self-intersecting).
     BALLOON_INVALID_MESH = 4,
     /// A struct's `struct_size` differs from its size in this library (a caller compiled
     /// against another version of the header).
