@@ -24,7 +24,7 @@ from .errors import (
     UnknownParameterError,
     UnsupportedScalarTypeError,
 )
-from .kernels import check, marching_cubes, self_intersections
+from .kernels import check, marching_cubes, self_intersections, simplify
 from .mesh import Mesh
 from .segmenter import (
     PARAMETERS,
@@ -63,5 +63,6 @@ __all__ = [
     "segment",
     "segment_objects",
     "self_intersections",
+    "simplify",
     "version",
 ]

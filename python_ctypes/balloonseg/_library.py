@@ -190,6 +190,14 @@ _SIGNATURES = {
         [POINTER(BalloonVolume), c_double, c_uint32, POINTER(_TriMesh)],
     ),
     "balloon_trimesh_view": (_Status, [_TriMesh, POINTER(BalloonMesh)]),
+    "balloon_simplify": (
+        _Status,
+        [POINTER(c_double), c_size_t, POINTER(c_uint32), c_size_t, c_double, POINTER(_TriMesh)],
+    ),
+    "balloon_trimesh_vertex_map": (
+        _Status,
+        [_TriMesh, POINTER(POINTER(c_uint32)), POINTER(c_size_t)],
+    ),
     "balloon_trimesh_free": (None, [_TriMesh]),
     "balloon_mesh_check": (
         _Status,

@@ -369,6 +369,7 @@ def segment(
     *,
     stop=None,
     roi=None,
+    simplify_mm=None,
     **params,
 ):
     """Segments the structure around ``seed`` (see :class:`Segmenter` for the arguments) and
@@ -381,7 +382,19 @@ def segment(
     balloon grows beyond, 6 numbers x0, y0, z0, x1, y1, z1 (two opposite corners). All in world
     mm. Returns the :class:`Mesh` of the only object, or a dict ``{label: Mesh}`` when ``seed``
     is a dict of several labels (:func:`segment_objects` always gives the dict).
+
+    ``simplify_mm`` (the parameter ``simplify_error_mm``; None or 0: not simplified) returns the
+    surface simplified so that it lies within that many mm of the balloon's surface both ways
+    (the two-sided Hausdorff distance), keeping every guarantee of the output; each vertex's
+    ``vertex_state`` is the least settled of those merged into it. Several objects are
+    simplified together, so their surfaces still do not cross.
     """
+    if simplify_mm is not None:
+        if params.get("simplify_error_mm") is not None:
+            raise InvalidArgumentError(
+                "simplify_mm and simplify_error_mm are the same parameter; give one of them"
+            )
+        params["simplify_error_mm"] = simplify_mm
     if not isinstance(seed, Mapping) and stop is None and roi is None:
         with Segmenter(volume, seed, spacing, origin, direction, axes, progress, **params) as s:
             return s.segment()
