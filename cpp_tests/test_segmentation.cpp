@@ -11,7 +11,8 @@
 // since Debian's VTK 9.1 reader ignores TransformMatrix); extents that do not start at 0, a
 // rotated direction, several components and every scalar type are honoured; progress events
 // fire; AbortExecute cancels with an error and an empty output; the filter re-executes when a
-// parameter changes and not otherwise.
+// parameter changes and not otherwise; SetSimplificationError gives a smaller surface that
+// OpenMesh finds a closed 2-manifold and CGAL free of self-intersections.
 //
 // VtkFilterObjects: labelled seeds (two balls apart, a bar cut between two objects), a stop seed
 // and a region of interest; the "object" cell array holds each triangle's label, every object is
@@ -465,6 +466,43 @@ TEST(VtkFilter, PhantomMatchesCApi)
 {
   const Phantom p = TorusPhantom();
   ExpectSameMesh(RunFilter(p.image, p.seed), PhantomSegmentation("torus phantom", p), "torus");
+}
+
+// SetSimplificationError: the output is the balloon simplified within the bound, with fewer
+// triangles, still a closed 2-manifold for OpenMesh and free of self-intersections for CGAL, of
+// the same genus, with a state per vertex; 0 gives the balloon as it was; a negative bound is
+// the library's error.
+TEST(VtkFilter, SimplificationErrorGivesASmallerValidSurface)
+{
+  const Phantom p = TorusPhantom();
+  vtkNew<vtkBalloonSegmentation> filter;
+  EventLog log;
+  log.Watch(filter);
+  filter->SetInputData(p.image);
+  filter->SetSeed(p.seed.data());
+  filter->SetThreads(2);
+  EXPECT_EQ(filter->GetSimplificationError(), 0.0);
+  filter->Update();
+  const Mesh full = FromPolyData(filter->GetOutput());
+  filter->SetSimplificationError(0.2);
+  EXPECT_EQ(filter->GetSimplificationError(), 0.2);
+  EXPECT_EQ(filter->GetSimplifyErrorMm(), 0.2);
+  filter->Update();
+  ASSERT_EQ(log.errors, 0) << log.last_error;
+  const Mesh simplified = FromPolyData(filter->GetOutput());
+  EXPECT_LT(simplified.TriangleCount(), full.TriangleCount());
+  EXPECT_EQ(simplified.state.size(), simplified.PointCount());
+  CheckWithOpenMeshAndCgal("torus phantom simplified within 0.2 mm", simplified);
+  EXPECT_EQ(support::Check(simplified).genus, support::Check(full).genus);
+
+  filter->SetSimplificationError(-1.0);
+  filter->Update();
+  EXPECT_EQ(log.errors, 1);
+  EXPECT_NE(log.last_error.find("simplify_error_mm"), std::string::npos) << log.last_error;
+  EXPECT_EQ(filter->GetOutput()->GetNumberOfPoints(), 0);
+  filter->SetSimplificationError(0.0);
+  filter->Update();
+  ExpectSameMesh(FromPolyData(filter->GetOutput()), full, "torus with SimplificationError 0");
 }
 
 // The same world geometry expressed with an extent that starts at (7, 3, 0): the same mesh.

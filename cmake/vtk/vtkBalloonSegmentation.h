@@ -152,6 +152,18 @@ public:
   ///@}
 
   ///@{
+  /// SimplifyErrorMm under the name the issue and the docs give it: 0 (the default) returns the
+  /// balloon as it is; a positive distance (mm) returns it simplified so that every point of
+  /// the output lies within it of the balloon's surface and every point of that surface within
+  /// it of the output (the two-sided Hausdorff distance), still closed, 2-manifold, outward and
+  /// free of self-intersections (also between objects), with the same genus and components;
+  /// "vertex_state" takes the least settled state of the vertices merged. A negative, NaN or
+  /// infinite value is an error at execution, like any parameter out of range.
+  void SetSimplificationError(double mm) { this->SetSimplifyErrorMm(mm); }
+  double GetSimplificationError() const { return this->GetSimplifyErrorMm(); }
+  ///@}
+
+  ///@{
   /// Statistics of the last successful execution (the estimated reference intensity and
   /// tolerance, iterations, re-parametrisations, total seconds); with several objects, those of
   /// the first object's balloon.

@@ -50,7 +50,9 @@ class BalloonSegmentationFilter(VTKPythonAlgorithmBase):
     """vtkImageData (one-component scalars of type u8…f64) in, the balloons' surfaces out: port 0
     a vtkPolyData with a "vertex_state" point array and an "object" cell array, port 1 a
     vtkMultiBlockDataSet with a block per object. Parameters: ``Set<Name>(value)`` for each name
-    in :data:`FILTER_PARAMETERS` (None restores the library's default or estimate)."""
+    in :data:`FILTER_PARAMETERS` (None restores the library's default or estimate), and
+    ``SetSimplificationError(mm)``, the same as ``SetSimplifyErrorMm``: the output simplified
+    within that distance of the balloon's surface, both ways (0 or None: not simplified)."""
 
     def __init__(self):
         VTKPythonAlgorithmBase.__init__(
@@ -340,3 +342,7 @@ for _vtk_name, _field in FILTER_PARAMETERS.items():
     _set, _get = _parameter_accessors(_field)
     setattr(BalloonSegmentationFilter, f"Set{_vtk_name}", _set)
     setattr(BalloonSegmentationFilter, f"Get{_vtk_name}", _get)
+
+# SimplifyErrorMm under the name the issue and the docs give it, as in the C++ filter.
+BalloonSegmentationFilter.SetSimplificationError = BalloonSegmentationFilter.SetSimplifyErrorMm
+BalloonSegmentationFilter.GetSimplificationError = BalloonSegmentationFilter.GetSimplifyErrorMm

@@ -135,6 +135,47 @@ def test_parameters_re_execute_and_an_unchanged_pipeline_does_not(oblique):
         assert hasattr(balloon, f"Set{name}") and hasattr(balloon, f"Get{name}")
 
 
+def test_simplification_error_gives_a_simplified_valid_surface(oblique):
+    """SetSimplificationError (SetSimplifyErrorMm by its issue's name) re-executes the filter;
+    the output has fewer triangles, stays a valid closed surface with its states, lies within
+    the bound of the unsimplified output both ways and equals segment(..., simplify_mm=)."""
+    from test_simplify import hausdorff_both_ways
+
+    path, seed = oblique
+    source = reader_with_itk_direction(path)  # kept: VTK's ports do not own their algorithm
+    balloon = BalloonSegmentationFilter()
+    balloon.SetInputConnection(source.GetOutputPort())
+    balloon.SetSeed(seed)
+    assert balloon.GetSimplificationError() is None
+    balloon.Update()
+    full = balloonseg.Mesh(*polydata_arrays(balloon.GetOutput()))
+    balloon.SetSimplificationError(0.2)
+    assert balloon.GetSimplificationError() == 0.2 == balloon.GetSimplifyErrorMm()
+    balloon.Update()
+    assert balloon.ExecutionCount == 2 and balloon.GetErrorMessage() == ""
+    reduced = balloonseg.Mesh(*polydata_arrays(balloon.GetOutput()))
+    assert 0 < len(reduced.triangles) < len(full.triangles)
+    s = reduced.stats
+    assert s["closed"] and s["manifold"] and s["outward"] and s["self_intersecting_pairs"] == 0
+    assert s["genus"] == full.stats["genus"] and s["components"] == 1
+    assert reduced.vertex_state is not None and len(reduced.vertex_state) == len(reduced.points)
+    there, back = hausdorff_both_ways(reduced, full)
+    assert there <= 0.2 + 1e-9 and back <= 0.2 + 1e-9, (there, back)
+    image, voxels, geometry = read_image(path)  # image kept: voxels is a view of it
+    direct = balloonseg.segment(voxels, seed, **geometry, simplify_mm=0.2)
+    assert_same_mesh(reduced, direct.points, direct.triangles, direct.vertex_state)
+
+    balloon.SetSimplificationError(-1.0)
+    balloon.Update()
+    assert "simplify_error_mm" in balloon.GetErrorMessage()
+    assert balloon.GetOutput().GetNumberOfPoints() == 0
+    balloon.SetSimplificationError(0.0)
+    balloon.Update()
+    unsimplified = polydata_arrays(balloon.GetOutput())
+    np.testing.assert_array_equal(unsimplified[0], full.points)
+    np.testing.assert_array_equal(unsimplified[1], full.triangles)
+
+
 def test_set_input_data_gives_the_pipeline_s_surface(oblique):
     """An image handed over with SetInputData, as to any vtkPolyDataAlgorithm, gives the same
     surface as the same image through a connection."""
