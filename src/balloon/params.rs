@@ -247,8 +247,9 @@ pub const PARAMETERS: &[Parameter] = &[
         unset: None,
         doc: "Simplify the result within this distance (mm) of the balloon's surface, both ways \
               (the two-sided Hausdorff distance), keeping every guarantee of the output; a \
-              merged vertex takes the least settled vertex_state. 0 returns the balloon as it \
-              is.",
+              merged vertex takes the least settled vertex_state; several objects are \
+              simplified together, within the bound of their surfaces taken together. 0 \
+              returns the balloon as it is.",
         get: |p| Some(p.simplify_error_mm),
         set: |p, v| p.simplify_error_mm = v,
     },
