@@ -183,9 +183,8 @@ typedef struct BalloonParams {
   // point of the result within this distance of the balloon's surface and every point of
   // that surface within it of the result (two-sided Hausdorff), still closed, 2-manifold,
   // outward, free of self-intersections (also between objects), with the same genus and
-  // components. Several objects are simplified together and the bound is to their surfaces
-  // taken together: where two are closer than it, a point of one may be up to the bound
-  // from the other's balloon rather than its own. A merged vertex takes the least settled vertex_state (moving before frozen
+  // components. Several objects are simplified together, so they cannot cross, and each keeps
+  // the bound to its own balloon. A merged vertex takes the least settled vertex_state (moving before frozen
   // by a self-intersection before frozen at the border). NaN, negative or infinite values
   // are BALLOON_INVALID_ARGUMENT. Added last: a caller compiled against an older header
   // has a smaller struct_size and is refused with BALLOON_PARAMS_SIZE_MISMATCH.

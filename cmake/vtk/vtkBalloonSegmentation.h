@@ -157,7 +157,7 @@ public:
   /// the output lies within it of the balloon's surface and every point of that surface within
   /// it of the output (the two-sided Hausdorff distance), still closed, 2-manifold, outward and
   /// free of self-intersections (also between objects), with the same genus and components
-  /// (several objects: the bound is to their surfaces taken together);
+  /// (several objects: each within the bound of its own balloon);
   /// "vertex_state" takes the least settled state of the vertices merged. A negative, NaN or
   /// infinite value is an error at execution, like any parameter out of range.
   void SetSimplificationError(double mm) { this->SetSimplifyErrorMm(mm); }

@@ -387,9 +387,8 @@ def segment(
     surface simplified so that it lies within that many mm of the balloon's surface both ways
     (the two-sided Hausdorff distance), keeping every guarantee of the output; each vertex's
     ``vertex_state`` is the least settled of those merged into it. Several objects are
-    simplified together, so their surfaces still do not cross; the bound is then to their
-    surfaces taken together (where two objects are closer than it, a point of one may be up to
-    the bound from the other's balloon rather than its own).
+    simplified together, so their surfaces still do not cross, and each keeps the bound to its
+    own balloon.
     """
     if simplify_mm is not None:
         if params.get("simplify_error_mm") is not None:

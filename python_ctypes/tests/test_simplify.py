@@ -194,11 +194,10 @@ def test_segment_refuses_a_bad_simplify_mm_before_it_runs():
 
 
 def test_objects_meeting_in_one_bar_are_simplified_together_without_crossing():
-    """Two objects seeded in one bar meet; simplified in one pass, each stays valid, the two
-    surfaces still do not cross, and the bound holds between the objects' surfaces taken
-    together. It does not hold for each object against its own balloon: the objects are 0.12 mm
-    apart, and object 1's result has a point 0.212 mm from its own balloon (within 0.2 of the
-    other's); the kernel has no bound per component yet."""
+    """Two objects seeded in one bar meet 0.12 mm apart; simplified in one pass, each stays
+    valid, the two surfaces still do not cross, and each object keeps the bound to its own
+    balloon (before the kernel's bound was per component, object 1's result had a point 0.212
+    mm from its own balloon for a 0.2 mm bound)."""
     bar = np.zeros((16, 16, 30), np.float32)
     bar[4:12, 4:12, 4:26] = 200
     spacing, origin = (1.0, 1.25, 0.8), (-10.0, 5.0, 2.5)
@@ -229,3 +228,6 @@ def test_objects_meeting_in_one_bar_are_simplified_together_without_crossing():
     assert len(balloonseg.self_intersections(both.points, both.triangles)) == 0
     there, back = hausdorff_both_ways(both, together(full))
     assert there <= 0.2 + 1e-9 and back <= 0.2 + 1e-9, (there, back)
+    for label in (1, 2):
+        there, back = hausdorff_both_ways(reduced[label], full[label])
+        assert there <= 0.2 + 1e-9 and back <= 0.2 + 1e-9, (label, there, back)

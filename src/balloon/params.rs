@@ -248,8 +248,8 @@ pub const PARAMETERS: &[Parameter] = &[
         doc: "Simplify the result within this distance (mm) of the balloon's surface, both ways \
               (the two-sided Hausdorff distance), keeping every guarantee of the output; a \
               merged vertex takes the least settled vertex_state; several objects are \
-              simplified together, within the bound of their surfaces taken together. 0 \
-              returns the balloon as it is.",
+              simplified together, so that they cannot cross, each within the bound of its \
+              own balloon. 0 returns the balloon as it is.",
         get: |p| Some(p.simplify_error_mm),
         set: |p, v| p.simplify_error_mm = v,
     },

@@ -34,6 +34,7 @@ use glam::DVec3;
 use super::triangle_grid::{Bounds, TriangleGrid};
 use crate::closest_point::Triangle;
 use crate::mesh::TriMesh;
+use crate::mesh_checks::component_volumes;
 
 /// How many times a part is cut again before a proof is given up. A cut along a boundary
 /// between targets settles one boundary, so a part over many targets needs several.
@@ -64,10 +65,14 @@ fn corner_reach([a, b, c]: Piece) -> f64 {
     longest / 3f64.sqrt()
 }
 
-/// The input surface, for the test that the output stays near it.
+/// The input surface, for the test that the output stays near it: each component of the
+/// output near the same component of the input, so that where several objects come close,
+/// each keeps the bound to its own surface.
 pub(super) struct InputSurface {
     triangles: Vec<Target>,
     bounds: Vec<Bounds>,
+    /// The connected component of each input triangle.
+    components: Vec<u32>,
     grid: TriangleGrid,
 }
 
@@ -86,20 +91,34 @@ impl InputSurface {
         InputSurface {
             triangles,
             bounds,
+            components: component_volumes(mesh).0,
             grid,
         }
     }
 
-    /// Whether every point of `triangle` is within `limit` of the input surface (a `false`
-    /// may also mean that the proof gave up).
-    pub(super) fn covers(&self, triangle: Piece, limit: f64, scratch: &mut Vec<u32>) -> bool {
+    /// The component of input triangle `t` (and of every output triangle that keeps its id).
+    pub(super) fn component(&self, t: u32) -> u32 {
+        self.components[t as usize]
+    }
+
+    /// Whether every point of `triangle` is within `limit` of the input's `component` (a
+    /// `false` may also mean that the proof gave up).
+    pub(super) fn covers(
+        &self,
+        triangle: Piece,
+        component: u32,
+        limit: f64,
+        scratch: &mut Vec<u32>,
+    ) -> bool {
         let reach = Bounds::of(triangle).grown(limit);
         self.grid.query(&reach, scratch);
-        // Every input triangle within `limit` of the triangle is among these, so a corner
-        // farther than `limit` from all of them is that far from the whole input.
+        // Every triangle of the component within `limit` of the triangle is among these, so a
+        // corner farther than `limit` from all of them is that far from the whole component.
         let near: Vec<Target> = scratch
             .iter()
-            .filter(|&&t| self.bounds[t as usize].overlaps(&reach))
+            .filter(|&&t| {
+                self.components[t as usize] == component && self.bounds[t as usize].overlaps(&reach)
+            })
             .map(|&t| self.triangles[t as usize])
             .collect();
         !near.is_empty()
@@ -490,16 +509,16 @@ mod tests {
                 DVec3::new(0.05, 0.9, z),
             ]
         };
-        assert!(input.covers(over(0.09), 0.1, &mut scratch));
-        assert!(!input.covers(over(0.11), 0.1, &mut scratch));
+        assert!(input.covers(over(0.09), 0, 0.1, &mut scratch));
+        assert!(!input.covers(over(0.11), 0, 0.1, &mut scratch));
         // Sticking out past the square's edge by 0.2: the corner is 0.2 away.
         let out = [
             DVec3::new(0.1, 0.1, 0.0),
             DVec3::new(1.2, 0.5, 0.0),
             DVec3::new(0.1, 0.9, 0.0),
         ];
-        assert!(!input.covers(out, 0.1, &mut scratch));
-        assert!(input.covers(out, 0.21, &mut scratch));
+        assert!(!input.covers(out, 0, 0.1, &mut scratch));
+        assert!(input.covers(out, 0, 0.21, &mut scratch));
     }
 
     #[test]
