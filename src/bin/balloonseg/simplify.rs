@@ -9,8 +9,8 @@ use balloonseg::{io, simplification::simplify, Result};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Input mesh (.vtp, .vtk, .ply, .stl, .obj, .off): closed, 2-manifold, outward and free
-    /// of self-intersections.
+    /// Input mesh (.vtp, .vtk, .ply, .stl, .obj, .off): closed, 2-manifold, consistently
+    /// oriented (either way; the result keeps it) and free of self-intersections.
     mesh: PathBuf,
     /// The largest distance (mm) allowed between the input and the result, both ways.
     #[arg(long = "max-error", allow_negative_numbers = true)]
