@@ -58,7 +58,7 @@ fn search(c: &mut Criterion) {
                 .build()
                 .expect("a thread pool");
             group.bench_with_input(BenchmarkId::new(name, threads), &mesh, |b, mesh| {
-                b.iter(|| pool.install(|| self_intersections(black_box(mesh))))
+                b.iter(|| pool.install(|| self_intersections(black_box(mesh)).unwrap()))
             });
         }
     }

@@ -278,7 +278,7 @@ fn segment(variant: &Variant, threads: usize) -> Result<(TriMesh, Scores)> {
     };
     let seconds = start.elapsed().as_secs_f64();
     let report = mesh_checks::check(&mesh);
-    let valid = report.is_valid_closed_surface() && self_intersections(&mesh).is_empty();
+    let valid = report.is_valid_closed_surface() && self_intersections(&mesh).unwrap().is_empty();
     let step = 0.5 * variant.image.geometry().min_spacing();
     let overlap = overlap_with_shape(&mesh, |p| variant.truth(p), variant.truth_bounds(), step)?;
     let other_inside = match (variant.other(), variant.other_bounds()) {

@@ -102,12 +102,13 @@ fn run() -> Result<()> {
         ];
         dice.extend(scores);
         let valid = [a, b].iter().all(|m| {
-            mesh_checks::check(m).is_valid_closed_surface() && self_intersections(m).is_empty()
+            mesh_checks::check(m).is_valid_closed_surface()
+                && self_intersections(m).unwrap().is_empty()
         });
         let mut both = a.clone();
         both.append(b)?;
-        let apart = self_intersections(&both).len()
-            == self_intersections(a).len() + self_intersections(b).len();
+        let apart = self_intersections(&both).unwrap().len()
+            == self_intersections(a).unwrap().len() + self_intersections(b).unwrap().len();
         let voxel = variant.image.geometry().max_spacing();
         let other = variant.other().expect("a pair");
         let gap = widest_gap_at_contact(a, other, b, 0.5 * voxel)?.max(widest_gap_at_contact(

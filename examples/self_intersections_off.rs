@@ -49,7 +49,9 @@ fn run() -> Result<(), String> {
     let mut pairs = Vec::new();
     for _ in 0..repeats {
         let start = Instant::now();
-        pairs = pool.install(|| self_intersections(&mesh));
+        pairs = pool
+            .install(|| self_intersections(&mesh))
+            .map_err(|e| e.to_string())?;
         best = best.min(start.elapsed().as_secs_f64());
     }
 

@@ -52,6 +52,9 @@ typedef enum BalloonStatus {
   // A Rust panic was caught at the boundary (a bug: please report it). Only
   // `balloon_free` is safe on a handle afterwards.
   BALLOON_PANIC = 10,
+  // A buffer the volume, the mesh or the parameters call for could not be allocated. A
+  // handle keeps the state of its last completed step and stays usable.
+  BALLOON_OUT_OF_MEMORY = 11,
 } BalloonStatus;
 
 // The kind of a parameter's value.

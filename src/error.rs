@@ -22,6 +22,8 @@ pub enum ErrorKind {
     Leak,
     /// A result failed the library's own guarantees (a bug: please report it with the input).
     Internal,
+    /// A buffer the input or the parameters call for could not be allocated.
+    OutOfMemory,
 }
 
 /// An error with a human-readable message.
@@ -71,6 +73,10 @@ impl Error {
 
     pub fn internal(message: impl Into<String>) -> Self {
         Self::new(ErrorKind::Internal, message)
+    }
+
+    pub fn out_of_memory(message: impl Into<String>) -> Self {
+        Self::new(ErrorKind::OutOfMemory, message)
     }
 
     pub fn kind(&self) -> ErrorKind {

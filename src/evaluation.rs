@@ -234,18 +234,18 @@ pub fn mask_surface_distances(
     let surface_b = mask_surface(&cropped(b), crop);
     let one_way = |from: &[bool], to: &[bool]| {
         let off_surface: Vec<bool> = to.iter().map(|&s| !s).collect();
-        let distance = crate::distance_transform::distance_to_outside(&off_surface, crop, spacing);
+        let distance = crate::distance_transform::distance_to_outside(&off_surface, crop, spacing)?;
         let samples = from
             .iter()
             .zip(distance)
             .filter(|(&s, _)| s)
             .map(|(_, d)| (d, 1.0))
             .collect();
-        Distances::of(samples)
+        Ok::<_, Error>(Distances::of(samples))
     };
     Ok(SymmetricDistances {
-        forward: one_way(&surface_a, &surface_b),
-        backward: one_way(&surface_b, &surface_a),
+        forward: one_way(&surface_a, &surface_b)?,
+        backward: one_way(&surface_b, &surface_a)?,
     })
 }
 

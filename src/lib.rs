@@ -6,6 +6,7 @@
 //! signed distance and mesh checks. Everything works on borrowed, strided volumes of any
 //! supported scalar type and produces meshes in world millimetres.
 
+mod allocation;
 pub mod balloon;
 pub mod error;
 pub mod evaluation;

@@ -14,7 +14,7 @@ fn sphere() -> Phantom {
 fn assert_valid(mesh: &TriMesh) {
     let report = mesh_checks::check(mesh);
     assert!(report.is_valid_closed_surface(), "{report:?}");
-    assert!(self_intersections(mesh).is_empty());
+    assert!(self_intersections(mesh).unwrap().is_empty());
 }
 
 #[test]

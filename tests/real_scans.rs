@@ -48,7 +48,7 @@ fn aorta_level_set_isosurface_is_vmtks_surface() {
     let report = mesh_checks::check(&mesh);
     assert!(report.is_valid_closed_surface(), "{report:?}");
     assert_eq!(report.genus(), Some(0));
-    assert!(self_intersections(&mesh).is_empty());
+    assert!(self_intersections(&mesh).unwrap().is_empty());
 
     // vmtk's file is in (156.445, 24.6094, 0) + spacing ⊙ index: the image's x and y negated,
     // float32, and facing inward.
@@ -238,7 +238,7 @@ fn aorta_balloon_is_one_valid_genus_zero_surface_overlapping_vmtks() {
     };
     let report = mesh_checks::check(&score.mesh);
     assert!(report.is_valid_closed_surface(), "{report:?}");
-    assert!(self_intersections(&score.mesh).is_empty());
+    assert!(self_intersections(&score.mesh).unwrap().is_empty());
     assert_eq!(report.components, 1, "{report:?}");
     assert_eq!(report.genus(), Some(0), "{report:?}");
     assert!(score.dice >= 0.97, "Dice {}", score.dice);
@@ -338,7 +338,7 @@ fn carotid_balloon_meets_itself_and_keeps_the_loops() {
     let report = mesh_checks::check(&mesh);
     eprintln!("carotid: {report:?} {:?}", segmenter.stats());
     assert!(report.is_valid_closed_surface(), "{report:?}");
-    assert!(self_intersections(&mesh).is_empty());
+    assert!(self_intersections(&mesh).unwrap().is_empty());
     assert!(report.genus().is_some_and(|g| g >= 1), "{report:?}");
 }
 
@@ -369,12 +369,19 @@ fn carotid_inflow_arteries_as_three_objects_are_valid_and_apart() {
     for o in &objects {
         let report = mesh_checks::check(&o.mesh);
         assert!(report.is_valid_closed_surface(), "{}: {report:?}", o.label);
-        assert!(self_intersections(&o.mesh).is_empty(), "{}", o.label);
+        assert!(
+            self_intersections(&o.mesh).unwrap().is_empty(),
+            "{}",
+            o.label
+        );
         if o.label != 1 {
             all.append(&o.mesh).unwrap();
         }
     }
-    assert!(self_intersections(&all).is_empty(), "two objects cross");
+    assert!(
+        self_intersections(&all).unwrap().is_empty(),
+        "two objects cross"
+    );
     let masks: Vec<Vec<bool>> = objects
         .iter()
         .map(|o| inside_mask(&o.mesh, image.dims(), &geometry).unwrap())
@@ -418,7 +425,7 @@ fn heart_aorta_with_the_blood_pool_as_a_competitor_stays_under_80_cm3() {
     assert_eq!(objects.len(), 1, "the competitor is left out");
     let report = mesh_checks::check(&objects[0].mesh);
     assert!(report.is_valid_closed_surface(), "{report:?}");
-    assert!(self_intersections(&objects[0].mesh).is_empty());
+    assert!(self_intersections(&objects[0].mesh).unwrap().is_empty());
     let volume_cm3 = report.signed_volume / 1000.0;
     assert!(volume_cm3 <= 80.0, "{volume_cm3} cm³");
 }

@@ -31,7 +31,7 @@ fn assert_guarantees(input: &TriMesh, out: &TriMesh, max_error: f64) -> f64 {
     assert_eq!(after.genus(), before.genus());
     assert_eq!(after.components, before.components);
     assert_eq!(after.inward_components, before.inward_components);
-    assert!(self_intersections(out).is_empty());
+    assert!(self_intersections(out).unwrap().is_empty());
     let (forward, backward) = hausdorff_distance(input, out, 4).unwrap();
     assert!(
         forward <= max_error && backward <= max_error,

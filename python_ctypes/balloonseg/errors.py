@@ -81,6 +81,13 @@ class PanicError(InternalError):
     default_status = 10
 
 
+class OutOfMemoryError(BalloonError, MemoryError):
+    """A buffer the volume, the mesh or the parameters call for could not be allocated; the
+    segmenter keeps the state of its last completed step and stays usable."""
+
+    default_status = 11
+
+
 class UnsupportedScalarTypeError(InvalidVolumeError, TypeError):
     """The numpy dtype is not one of the scalar types the library reads."""
 
@@ -102,6 +109,7 @@ _BY_STATUS = {
         LeakError,
         InternalError,
         PanicError,
+        OutOfMemoryError,
     )
 }
 

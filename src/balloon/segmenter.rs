@@ -553,7 +553,7 @@ mod tests {
         let centre = s.seeds[0];
         s.surface.positions_mut()[v as usize] = centre + 1.5 * (centre - before[v as usize]);
         s.index_surface();
-        assert!(!self_intersections(&s.mesh().0).is_empty());
+        assert!(!self_intersections(&s.mesh().0).unwrap().is_empty());
         test(&mut s, before);
     }
 
@@ -563,7 +563,7 @@ mod tests {
             let reparametrizations = s.stats.reparametrizations;
             let (mesh, _) = s.validated(vec![before.clone()]).unwrap();
             assert!(mesh_checks::check(&mesh).is_valid_closed_surface());
-            assert!(self_intersections(&mesh).is_empty());
+            assert!(self_intersections(&mesh).unwrap().is_empty());
             assert_eq!(s.surface.positions(), &before[..]);
             assert_eq!(s.stats.reparametrizations, reparametrizations);
         });
@@ -579,7 +579,7 @@ mod tests {
                 .map(|&x| centre + 0.97 * (x - centre))
                 .collect();
             let (mesh, _) = s.validated(vec![unsettled.clone(), unfaired]).unwrap();
-            assert!(self_intersections(&mesh).is_empty());
+            assert!(self_intersections(&mesh).unwrap().is_empty());
             assert_eq!(s.surface.positions(), &unsettled[..]);
         });
     }

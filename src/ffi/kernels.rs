@@ -222,7 +222,7 @@ pub unsafe extern "C" fn balloon_mesh_check(
             manifold: r.manifold().into(),
             oriented: r.consistently_oriented().into(),
             outward: r.outward().into(),
-            self_intersecting_pairs: self_intersections(&mesh).len(),
+            self_intersecting_pairs: self_intersections(&mesh)?.len(),
             euler_characteristic: r.euler_characteristic,
             genus: r.genus().unwrap_or(-1),
             components: r.components,
@@ -261,7 +261,7 @@ pub unsafe extern "C" fn balloon_self_intersections(
         }
         // SAFETY: by the caller's promise.
         let mesh = unsafe { mesh_from_c(points, point_count, triangles, triangle_count)? };
-        let pairs = self_intersections(&mesh);
+        let pairs = self_intersections(&mesh)?;
         // SAFETY: non-NULL and writable; the count is written with BUFFER_TOO_SMALL too.
         unsafe { pair_count_out.write(pairs.len()) };
         if pairs.len() > pairs_capacity {

@@ -38,10 +38,13 @@ pub enum BalloonStatus {
     /// A Rust panic was caught at the boundary (a bug: please report it). Only
     /// `balloon_free` is safe on a handle afterwards.
     BALLOON_PANIC = 10,
+    /// A buffer the volume, the mesh or the parameters call for could not be allocated. A
+    /// handle keeps the state of its last completed step and stays usable.
+    BALLOON_OUT_OF_MEMORY = 11,
 }
 
 impl BalloonStatus {
-    const ALL: [BalloonStatus; 11] = [
+    const ALL: [BalloonStatus; 12] = [
         BalloonStatus::BALLOON_OK,
         BalloonStatus::BALLOON_NULL_POINTER,
         BalloonStatus::BALLOON_INVALID_ARGUMENT,
@@ -53,6 +56,7 @@ impl BalloonStatus {
         BalloonStatus::BALLOON_LEAK,
         BalloonStatus::BALLOON_INTERNAL_ERROR,
         BalloonStatus::BALLOON_PANIC,
+        BalloonStatus::BALLOON_OUT_OF_MEMORY,
     ];
 
     /// The status of an error of the safe API. No C function reads or writes files, so an
@@ -64,6 +68,7 @@ impl BalloonStatus {
             ErrorKind::InvalidMesh => BalloonStatus::BALLOON_INVALID_MESH,
             ErrorKind::Cancelled => BalloonStatus::BALLOON_CANCELLED,
             ErrorKind::Leak => BalloonStatus::BALLOON_LEAK,
+            ErrorKind::OutOfMemory => BalloonStatus::BALLOON_OUT_OF_MEMORY,
             ErrorKind::Io | ErrorKind::Format | ErrorKind::Internal => {
                 BalloonStatus::BALLOON_INTERNAL_ERROR
             }
@@ -92,6 +97,9 @@ impl BalloonStatus {
             }
             BalloonStatus::BALLOON_PANIC => {
                 c"internal error: a panic was caught at the C boundary (please report it)"
+            }
+            BalloonStatus::BALLOON_OUT_OF_MEMORY => {
+                c"out of memory: a buffer the input or the parameters call for could not be allocated"
             }
         }
     }
@@ -129,7 +137,7 @@ mod tests {
         let distinct: std::collections::HashSet<_> =
             BalloonStatus::ALL.map(|s| s.description()).into();
         assert_eq!(distinct.len(), BalloonStatus::ALL.len());
-        for unknown in [-1, 11, c_int::MAX] {
+        for unknown in [-1, 12, c_int::MAX] {
             let text = unsafe { CStr::from_ptr(balloon_status_string(unknown)) };
             assert_eq!(text, c"unknown status");
         }
@@ -144,6 +152,7 @@ mod tests {
             (ErrorKind::InvalidMesh, BALLOON_INVALID_MESH),
             (ErrorKind::Cancelled, BALLOON_CANCELLED),
             (ErrorKind::Leak, BALLOON_LEAK),
+            (ErrorKind::OutOfMemory, BALLOON_OUT_OF_MEMORY),
             (ErrorKind::Internal, BALLOON_INTERNAL_ERROR),
             (ErrorKind::Io, BALLOON_INTERNAL_ERROR),
             (ErrorKind::Format, BALLOON_INTERNAL_ERROR),

@@ -10,6 +10,9 @@
 
 use rayon::prelude::*;
 
+use crate::allocation;
+use crate::error::Result;
+
 /// A sample of a line: the value the envelope minimises, and what goes with the sample whose
 /// parabola is lowest at a point (nothing, or a label).
 trait Sample: Copy + Default + Send + Sync {
@@ -40,14 +43,15 @@ impl Sample for (f64, u32) {
 
 /// For each voxel of `mask`, its Euclidean distance (mm) to the nearest voxel outside it (0
 /// outside; a mask without outside voxels is as far as the grid is long).
-pub fn distance_to_outside(mask: &[bool], dims: [usize; 3], spacing: [f64; 3]) -> Vec<f64> {
+pub fn distance_to_outside(mask: &[bool], dims: [usize; 3], spacing: [f64; 3]) -> Result<Vec<f64>> {
     let far = far(dims, spacing);
-    let mut squared: Vec<f64> = mask
-        .par_iter()
-        .map(|&m| if m { far } else { 0.0 })
-        .collect();
-    transform(&mut squared, dims, spacing);
-    squared.into_par_iter().map(f64::sqrt).collect()
+    let mut distance = allocation::par_collect(
+        mask.par_iter().map(|&m| if m { far } else { 0.0 }),
+        "a distance map",
+    )?;
+    transform(&mut distance, dims, spacing);
+    distance.par_iter_mut().for_each(|d| *d = d.sqrt());
+    Ok(distance)
 }
 
 /// The label of each voxel's cell in the power diagram (Aurenhammer, "Power diagrams", SIAM J.
@@ -62,21 +66,20 @@ pub fn power_labels(
     unlabelled: u32,
     dims: [usize; 3],
     spacing: [f64; 3],
-) -> Vec<u32> {
+) -> Result<Vec<u32>> {
     let far = far(dims, spacing);
-    let mut samples: Vec<(f64, u32)> = radius
-        .par_iter()
-        .zip(labels)
-        .map(|(&r, &l)| {
+    let mut samples = allocation::par_collect(
+        radius.par_iter().zip(labels).map(|(&r, &l)| {
             if l == unlabelled {
                 (far, l)
             } else {
                 (-r * r, l)
             }
-        })
-        .collect();
+        }),
+        "a power diagram's samples",
+    )?;
     transform(&mut samples, dims, spacing);
-    samples.into_par_iter().map(|(_, l)| l).collect()
+    allocation::par_collect(samples.into_par_iter().map(|(_, l)| l), "a power diagram")
 }
 
 /// More than any squared distance within the grid.
@@ -250,7 +253,7 @@ mod tests {
         let mask: Vec<bool> = (0..13 * 11 * 9)
             .map(|n| inside(n % 13, n / 13 % 11, n / 143))
             .collect();
-        let d = distance_to_outside(&mask, dims, spacing);
+        let d = distance_to_outside(&mask, dims, spacing).unwrap();
         for (n, exact) in brute_force_distances(&mask, dims, spacing)
             .into_iter()
             .enumerate()
@@ -317,7 +320,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| distance_to_outside(&mask, dims, spacing))
+                .install(|| distance_to_outside(&mask, dims, spacing).unwrap())
         };
         let d = in_pool(1);
         assert_eq!(d, in_pool(2));
@@ -354,7 +357,7 @@ mod tests {
         };
         let power =
             |p: usize, c: usize| (position(p) - position(c)).length_squared() - radius[c].powi(2);
-        let got = power_labels(&radius, &labels, u32::MAX, dims, spacing);
+        let got = power_labels(&radius, &labels, u32::MAX, dims, spacing).unwrap();
         for (p, &label) in got.iter().enumerate() {
             let least = |label: u32| {
                 (0..count)
@@ -383,7 +386,7 @@ mod tests {
             |n: usize| DVec3::new((n % 30) as f64, (n / 30 % 16) as f64, (n / 480) as f64) * 0.5;
         let inside = |p: DVec3| (p - a).length() < ra || (p - b).length() < rb;
         let mask: Vec<bool> = (0..dims.iter().product()).map(|n| inside(at(n))).collect();
-        let depth = distance_to_outside(&mask, dims, spacing);
+        let depth = distance_to_outside(&mask, dims, spacing).unwrap();
         let labels: Vec<u32> = (0..mask.len())
             .map(|n| match mask[n] {
                 false => u32::MAX,
@@ -391,7 +394,7 @@ mod tests {
                 true => 1,
             })
             .collect();
-        let got = power_labels(&depth, &labels, u32::MAX, dims, spacing);
+        let got = power_labels(&depth, &labels, u32::MAX, dims, spacing).unwrap();
         // The radical plane: |p − a|² − ra² = |p − b|² − rb².
         let side =
             |p: DVec3| (p - a).length_squared() - ra * ra - (p - b).length_squared() + rb * rb;

@@ -22,6 +22,7 @@
 use glam::{DVec3, DVec4};
 use rayon::prelude::*;
 
+use crate::allocation;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::predicates::{coplanar_orientation, orient3d_bound_for_differences_up_to, Plane, Sign};
@@ -31,7 +32,7 @@ use crate::triangle_intersection::{prepared_triangles_intersect, segment_meets_p
 /// The pairs (a, b) of intersecting triangles, sorted, as CGAL's
 /// `Polygon_mesh_processing::self_intersections` defines them: a < b for two non-degenerate
 /// triangles, and (t, t) for each degenerate triangle t. Identical for any number of threads.
-pub fn self_intersections(mesh: &TriMesh) -> Vec<(u32, u32)> {
+pub fn self_intersections(mesh: &TriMesh) -> Result<Vec<(u32, u32)>> {
     find(mesh, |_| true)
 }
 
@@ -46,26 +47,29 @@ pub fn self_intersections_among(mesh: &TriMesh, active: &[bool]) -> Result<Vec<(
             mesh.triangles().len()
         )));
     }
-    Ok(find(mesh, |t| active[t as usize]))
+    find(mesh, |t| active[t as usize])
 }
 
-fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> {
+fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Result<Vec<(u32, u32)>> {
     // Unreachable in practice: 2^32 triangles take 48 GiB of indices alone.
     assert!(
         u32::try_from(mesh.triangles().len()).is_ok(),
         "more than 2^32 triangles: the pair ids of the result cannot hold them"
     );
     let count = mesh.triangles().len() as u32;
-    let (boxes, degenerate): (Vec<Aabb>, Vec<bool>) = (0..count)
-        .into_par_iter()
-        .map(|t| {
+    let boxes = allocation::par_collect(
+        (0..count)
+            .into_par_iter()
+            .map(|t| Aabb::of_triangle(mesh.corners(t as usize))),
+        "the triangles' boxes",
+    )?;
+    let degenerate = allocation::par_collect(
+        (0..count).into_par_iter().map(|t| {
             let [a, b, c] = mesh.corners(t as usize);
-            (
-                Aabb::of_triangle([a, b, c]),
-                Plane::new(a, b, c).is_degenerate(),
-            )
-        })
-        .unzip();
+            Plane::new(a, b, c).is_degenerate()
+        }),
+        "the triangles' degeneracy flags",
+    )?;
     // The non-degenerate triangles in Morton order of their boxes' lower corners, the order in
     // which the spatial hash visits them. Their data is gathered from the mesh in that order,
     // so that the exact tests read memory almost sequentially instead of jumping around.
@@ -78,13 +82,14 @@ fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> 
         spatial_order(&boxes)
     };
     drop(boxes);
-    let (faces, boxes): (Vec<Face>, Vec<Aabb>) = order
-        .par_iter()
-        .map(|&t| {
-            let face = Face::new(mesh, t);
-            (face, Aabb::of_triangle(face.corners))
-        })
-        .unzip();
+    let faces = allocation::par_collect(
+        order.par_iter().map(|&t| Face::new(mesh, t)),
+        "the triangles in spatial order",
+    )?;
+    let boxes = allocation::par_collect(
+        faces.par_iter().map(|face| Aabb::of_triangle(face.corners)),
+        "the triangles' boxes",
+    )?;
     drop(order);
     let found = overlapping_pairs(&boxes, |x, y| {
         let (a, b) = (&faces[x as usize], &faces[y as usize]);
@@ -103,7 +108,7 @@ fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Vec<(u32, u32)> 
             .map(|t| (t, t)),
     );
     pairs.par_sort_unstable();
-    pairs
+    Ok(pairs)
 }
 
 /// Whether two triangles of one mesh, given by their corners and vertex ids, intersect as
@@ -279,6 +284,11 @@ mod tests {
     use crate::predicates::collinear;
     use proptest::prelude::*;
 
+    /// The pairs of a mesh small enough that its buffers cannot fail.
+    fn pairs(mesh: &TriMesh) -> Vec<(u32, u32)> {
+        self_intersections(mesh).unwrap()
+    }
+
     /// Every pair tested, no bounding boxes: the reference for the spatial hash.
     fn brute_force(mesh: &TriMesh) -> Vec<(u32, u32)> {
         let n = mesh.triangles().len() as u32;
@@ -330,13 +340,13 @@ mod tests {
     #[test]
     fn a_clean_icosphere_has_no_self_intersection() {
         let sphere = icosphere(DVec3::new(3.0, -1.0, 2.0), 5.0, 4);
-        assert!(self_intersections(&sphere).is_empty());
+        assert!(pairs(&sphere).is_empty());
     }
 
     #[test]
     fn pushed_through_cap_matches_brute_force() {
         let m = pushed_cap_sphere(3);
-        let pairs = self_intersections(&m);
+        let pairs = pairs(&m);
         assert!(pairs.len() > 50, "{}", pairs.len());
         assert_eq!(pairs, brute_force(&m));
     }
@@ -347,7 +357,7 @@ mod tests {
         let b = icosphere(DVec3::new(0.9, 0.3, 0.1), 1.0, 3);
         let n = a.triangles().len() as u32;
         let m = merged(&[a, b]);
-        let pairs = self_intersections(&m);
+        let pairs = pairs(&m);
         assert!(!pairs.is_empty());
         assert!(pairs.iter().all(|&(x, y)| x < n && y >= n));
         assert_eq!(pairs, brute_force(&m));
@@ -368,9 +378,9 @@ mod tests {
                 &[[0, 1, 2], [3, 4, 5]],
             )
         };
-        assert_eq!(self_intersections(&with_height(1.0)), vec![(0, 1)]);
+        assert_eq!(pairs(&with_height(1.0)), vec![(0, 1)]);
         // Lifted by one ulp they are apart.
-        assert!(self_intersections(&with_height(1f64.next_up())).is_empty());
+        assert!(pairs(&with_height(1f64.next_up())).is_empty());
     }
 
     #[test]
@@ -387,7 +397,7 @@ mod tests {
             ],
             &[[0, 1, 2], [3, 4, 5]],
         );
-        assert_eq!(self_intersections(&at_vertex), vec![(0, 1)]);
+        assert_eq!(pairs(&at_vertex), vec![(0, 1)]);
         // A vertical triangle standing on the first one's edge.
         let on_edge = mesh(
             &[
@@ -400,14 +410,13 @@ mod tests {
             ],
             &[[0, 1, 2], [3, 4, 5]],
         );
-        assert_eq!(self_intersections(&on_edge), vec![(0, 1)]);
+        assert_eq!(pairs(&on_edge), vec![(0, 1)]);
     }
 
     #[test]
     fn shared_edge_counts_only_a_coplanar_fold_over() {
         let (p, q, r) = ([0., 0., 0.], [4., 0., 0.], [0., 4., 0.]);
-        let with_s =
-            |s: [f64; 3]| self_intersections(&mesh(&[p, q, r, s], &[[0, 1, 2], [1, 0, 3]]));
+        let with_s = |s: [f64; 3]| pairs(&mesh(&[p, q, r, s], &[[0, 1, 2], [1, 0, 3]]));
         // Flat continuation across the edge, dihedral folds (even a very sharp one): clean.
         assert!(with_s([2., -3., 0.]).is_empty());
         assert!(with_s([2., 3., 1.]).is_empty());
@@ -424,7 +433,7 @@ mod tests {
         // Triangle 0 in the plane z = 0, triangle 1 shares vertex 0.
         let base = [[0., 0., 0.], [4., 0., 0.], [0., 4., 0.]];
         let with = |u: [f64; 3], w: [f64; 3]| {
-            self_intersections(&mesh(
+            pairs(&mesh(
                 &[base[0], base[1], base[2], u, w],
                 &[[0, 1, 2], [0, 3, 4]],
             ))
@@ -457,21 +466,18 @@ mod tests {
             [-4., 8., 0.],
         ];
         // A pillow: the same triangle twice, opposite windings.
-        assert_eq!(
-            self_intersections(&mesh(&pts, &[[0, 1, 2], [0, 2, 1]])),
-            vec![(0, 1)]
-        );
+        assert_eq!(pairs(&mesh(&pts, &[[0, 1, 2], [0, 2, 1]])), vec![(0, 1)]);
         // Points 1 to 4 lie on the line x + y = 4 and triangle 3 repeats a vertex: all but
         // triangle 0 are degenerate, and they are not tested against it.
         let m = mesh(&pts, &[[0, 1, 2], [1, 2, 3], [2, 3, 4], [0, 0, 4]]);
-        assert_eq!(self_intersections(&m), vec![(1, 1), (2, 2), (3, 3)]);
-        assert_eq!(self_intersections(&m), brute_force(&m));
+        assert_eq!(pairs(&m), vec![(1, 1), (2, 2), (3, 3)]);
+        assert_eq!(pairs(&m), brute_force(&m));
     }
 
     #[test]
     fn active_flags_keep_pairs_with_an_active_triangle() {
         let m = pushed_cap_sphere(2);
-        let all = self_intersections(&m);
+        let all = pairs(&m);
         let active: Vec<bool> = (0..m.triangles().len()).map(|t| t % 3 == 0).collect();
         let some = self_intersections_among(&m, &active).unwrap();
         let expected: Vec<_> = all
@@ -496,7 +502,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            pool.install(|| self_intersections(&m))
+            pool.install(|| pairs(&m))
         };
         let one = run(1);
         assert!(!one.is_empty());
@@ -573,12 +579,12 @@ mod tests {
 
         #[test]
         fn spatial_hash_finds_what_brute_force_finds(m in small_mesh()) {
-            prop_assert_eq!(self_intersections(&m), brute_force(&m));
+            prop_assert_eq!(pairs(&m), brute_force(&m));
         }
 
         #[test]
         fn spatial_hash_finds_what_brute_force_finds_at_any_coordinates(m in float_mesh()) {
-            prop_assert_eq!(self_intersections(&m), brute_force(&m));
+            prop_assert_eq!(pairs(&m), brute_force(&m));
         }
     }
 }

@@ -23,6 +23,7 @@ use std::collections::{HashMap, HashSet};
 
 use glam::{DMat3, DVec3};
 
+use crate::allocation;
 use crate::balloon::fast_hash::FastHash;
 use crate::balloon::reparametrization::isosurface::{
     covering_grid, isosurface, keep_inside_free_space, keep_seeded_components, without_cavities,
@@ -118,8 +119,8 @@ pub(crate) fn cut_touching(
         .iter()
         .filter_map(|&s| voxel_of(grid.world_to_index(s), dims))
         .collect();
-    let mut cut = vec![false; inside.len()];
-    let (basins, thickness) = find_basins(&inside, dims, spacing, radius);
+    let mut cut = allocation::filled(inside.len(), false, "the touching cut's mask")?;
+    let (basins, thickness) = find_basins(&inside, dims, spacing, radius)?;
     let seed_basins = basins_of(&basins, &seed_voxels);
     // With one basin, or the seeds in parts too thin for a core of their own, there is nothing
     // to compare.
@@ -140,7 +141,7 @@ pub(crate) fn cut_touching(
             dims,
             &grid,
             geometry,
-        );
+        )?;
         // Each basin of the balloon's own without a seed goes with the structure seen whole
         // that most of it lies in.
         let mut share = vec![(0usize, 0usize); thickness.len()];
@@ -204,26 +205,18 @@ pub(in crate::balloon) fn find_basins(
     dims: [usize; 3],
     spacing: [f64; 3],
     radius: f64,
-) -> (Vec<u32>, Vec<f64>) {
-    let depth = distance_transform::distance_to_outside(mask, dims, spacing);
-    let (lobes, thickness) = watershed(&depth, dims, radius, spacing[0]);
+) -> Result<(Vec<u32>, Vec<f64>)> {
+    let depth = distance_transform::distance_to_outside(mask, dims, spacing)?;
+    let (mut cores, thickness) = watershed(&depth, dims, radius, spacing[0])?;
     // Each basin's core, the part deeper than its waists could be, grown back over the inside
     // (`grow_cores`).
-    let cores: Vec<u32> = lobes
-        .iter()
-        .zip(&depth)
-        .map(|(&l, &d)| {
-            if l != u32::MAX && d >= SPLIT * thickness[l as usize] {
-                l
-            } else {
-                u32::MAX
-            }
-        })
-        .collect();
-    (
-        grow_cores(mask, &depth, &cores, dims, LEVEL_VOXELS * spacing[0]),
-        thickness,
-    )
+    for (l, &d) in cores.iter_mut().zip(&depth) {
+        if *l != u32::MAX && d < SPLIT * thickness[*l as usize] {
+            *l = u32::MAX;
+        }
+    }
+    let basins = grow_cores(mask, &depth, cores, dims, LEVEL_VOXELS * spacing[0])?;
+    Ok((basins, thickness))
 }
 
 /// The basins of the balloon's inside `inside` with the voxels `earlier` cuts took (indices of
@@ -238,15 +231,18 @@ fn structures_cut_before(
     dims: [usize; 3],
     grid: &Geometry,
     geometry: &Geometry,
-) -> (Vec<u32>, Vec<bool>) {
+) -> Result<(Vec<u32>, Vec<bool>)> {
     let spacing = grid.spacing();
-    let mut taken = vec![false; inside.len()];
+    let mut taken = allocation::filled(inside.len(), false, "the earlier cuts' mask")?;
     mark_voxels(&mut taken, dims, grid, geometry, earlier);
     // The balloon's front stopped at the cut rounded, and the groove it leaves along the seam
     // would read as a waist between the cut part and the part entered again.
-    let mut seen: Vec<bool> = inside.iter().zip(&taken).map(|(&a, &b)| a || b).collect();
+    let mut seen = allocation::collect(
+        inside.iter().zip(&taken).map(|(&a, &b)| a || b),
+        "the balloon's inside with the earlier cuts",
+    )?;
     morphology::close(&mut seen, dims, spacing, SEAM_VOXELS * spacing[0]);
-    let (whole, thickness) = find_basins(&seen, dims, spacing, radius);
+    let (whole, thickness) = find_basins(&seen, dims, spacing, radius)?;
     let seeded = basins_of(&whole, seed_voxels);
     let kept = joined_through_round_contacts(&whole, &thickness, &seeded, dims, grid);
     let mut again = vec![false; thickness.len()];
@@ -257,7 +253,7 @@ fn structures_cut_before(
     {
         again[w as usize] = !kept[w as usize];
     }
-    (whole, again)
+    Ok((whole, again))
 }
 
 /// The basins of `voxels`, those in one.
@@ -334,17 +330,17 @@ pub(in crate::balloon) fn voxel_of(p: DVec3, dims: [usize; 3]) -> Option<usize> 
 fn grow_cores(
     inside: &[bool],
     depth: &[f64],
-    cores: &[u32],
+    cores: Vec<u32>,
     dims: [usize; 3],
     level_depth: f64,
-) -> Vec<u32> {
+) -> Result<Vec<u32>> {
     let grid = Grid(dims);
-    let mut label = cores.to_vec();
-    let mut order: Vec<usize> = (0..inside.len())
-        .filter(|&n| inside[n] && label[n] == u32::MAX)
-        .collect();
+    let mut label = cores;
+    let unlabelled = (0..inside.len()).filter(|&n| inside[n] && label[n] == u32::MAX);
+    let mut order = allocation::with_capacity(unlabelled.clone().count(), "the flood's order")?;
+    order.extend(unlabelled);
     order.sort_unstable_by(|&a, &b| depth[b].total_cmp(&depth[a]).then(a.cmp(&b)));
-    let mut admitted = vec![false; inside.len()];
+    let mut admitted = allocation::filled(inside.len(), false, "the flood's admitted voxels")?;
     let mut waiting: Vec<usize> = Vec::new();
     let mut next_admitted = 0;
     let mut level = order.first().map_or(0.0, |&n| depth[n]);
@@ -390,7 +386,7 @@ fn grow_cores(
         waiting.retain(|&n| label[n] == u32::MAX);
         level -= level_depth;
     }
-    label
+    Ok(label)
 }
 
 /// The watershed of the distance map `depth` (mm, 0 outside): a basin label per voxel
@@ -404,11 +400,13 @@ fn watershed(
     dims: [usize; 3],
     min_thickness: f64,
     voxel: f64,
-) -> (Vec<u32>, Vec<f64>) {
+) -> Result<(Vec<u32>, Vec<f64>)> {
     let grid = Grid(dims);
-    let mut order: Vec<usize> = (0..depth.len()).filter(|&n| depth[n] > 0.0).collect();
+    let inside = (0..depth.len()).filter(|&n| depth[n] > 0.0);
+    let mut order = allocation::with_capacity(inside.clone().count(), "the watershed's order")?;
+    order.extend(inside);
     order.sort_unstable_by(|&a, &b| depth[b].total_cmp(&depth[a]).then(a.cmp(&b)));
-    let mut label = vec![u32::MAX; depth.len()];
+    let mut label = allocation::filled(depth.len(), u32::MAX, "the watershed's labels")?;
     let mut sets = Basins::default();
     for n in order {
         let saddle = depth[n];
@@ -448,7 +446,7 @@ fn watershed(
         }
         *l = dense[root];
     }
-    (label, thickness)
+    Ok((label, thickness))
 }
 
 /// Union–find over the basins of the flood, each with its thickness.
@@ -989,7 +987,7 @@ mod tests {
             mask[14 + dims[0] * (26 + dims[1] * 15)],
             "the pinhole joins them"
         );
-        let (basins, thickness) = find_basins(&mask, dims, [1.0; 3], 2.0);
+        let (basins, thickness) = find_basins(&mask, dims, [1.0; 3], 2.0).unwrap();
         let at = |i: usize, j: usize| basins[i + dims[0] * (j + dims[1] * 15)];
         let (ball, end) = (at(14, 16), at(48, 28));
         assert_eq!(thickness.len(), 2, "{thickness:?}");

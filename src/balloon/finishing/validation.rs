@@ -144,20 +144,23 @@ impl Segmenter<'_, '_> {
         }
         self.index_surface();
         let (moved, _) = self.mesh();
+        let pairs = self.pool.install(|| self_intersections(&moved));
         if mesh_checks::check(&moved).is_valid_closed_surface()
-            && self.pool.install(|| self_intersections(&moved)).is_empty()
+            && pairs.as_ref().is_ok_and(|p| p.is_empty())
         {
             return Ok(true);
         }
         self.surface.positions_mut().copy_from_slice(&before);
         self.index_surface();
+        // Put back before an allocation failure is reported: the balloon stays as it was.
+        pairs?;
         Ok(false)
     }
 
     /// The pairs of triangles of `mesh` (the current surface) that intersect, and each that
     /// crosses another object's final surface as a pair with itself.
     fn contacts(&self, mesh: &TriMesh) -> Result<Vec<(u32, u32)>> {
-        let mut pairs = self.pool.install(|| self_intersections(mesh));
+        let mut pairs = self.pool.install(|| self_intersections(mesh))?;
         let finished = &self.apart_from;
         let crossing = self.pool.install(|| crossings(mesh, finished))?;
         pairs.extend(crossing.into_iter().map(|t| (t, t)));

@@ -40,6 +40,7 @@
 
 use glam::DVec3;
 
+use crate::allocation;
 use crate::balloon::image_model::border::{ImageScales, IntensityWindow};
 use crate::balloon::image_model::hounsfield;
 use crate::error::{Error, Result};
@@ -146,7 +147,7 @@ pub(crate) fn estimate(
         Some(r) => r,
         None => seed_level(image, seed)?,
     };
-    let noise = noise_sigma(volume, index);
+    let noise = noise_sigma(volume, index)?;
     let rays = Rays::cast(volume, seed, image.coarse.sigma_mm());
     // At least a rounding error of the reference, so that a uniform region has no edge.
     let band = (BAND_SIGMAS * noise)
@@ -517,14 +518,15 @@ fn texture<'e>(
 /// σ of the noise around `centre`: the median absolute difference between neighbouring voxels
 /// along each axis, in a box of [`NOISE_BOX`] voxels around it, scaled for a Gaussian
 /// (1.4826 / √2). Edges and slow trends only reach the tails of those differences.
-fn noise_sigma(volume: &Volume<'_>, centre: DVec3) -> f64 {
+fn noise_sigma(volume: &Volume<'_>, centre: DVec3) -> Result<f64> {
     let dims = volume.dims();
     let nearest = centre.round();
     let range = |axis: usize| {
         let c = nearest[axis] as usize;
         c.saturating_sub(NOISE_BOX)..(c + NOISE_BOX).min(dims[axis])
     };
-    let mut differences = Vec::new();
+    let voxels = range(0).len() * range(1).len() * range(2).len();
+    let mut differences = allocation::with_capacity(3 * voxels, "the noise estimate's samples")?;
     for k in range(2) {
         for j in range(1) {
             for i in range(0) {
@@ -541,9 +543,9 @@ fn noise_sigma(volume: &Volume<'_>, centre: DVec3) -> f64 {
         }
     }
     if differences.is_empty() {
-        return 0.0;
+        return Ok(0.0);
     }
-    1.4826 / std::f64::consts::SQRT_2 * median(&mut differences)
+    Ok(1.4826 / std::f64::consts::SQRT_2 * median(&mut differences))
 }
 
 fn median(values: &mut [f64]) -> f64 {

@@ -72,7 +72,7 @@ pub(super) fn repartition(
     // The basins of the union as the balloons left it, their gap outside: with the gap closed,
     // two tubes lying side by side read as one thick part, split along its length instead
     // (touching-pair variant 0: Dice 0.58 for the thinner tube).
-    let (basins, thickness) = find_basins(&union, dims, grid.spacing(), radius);
+    let (basins, thickness) = find_basins(&union, dims, grid.spacing(), radius)?;
     let claimed = claim_basins(&basins, thickness.len(), seeds, &grid, dims);
     let claims: Vec<u32> = owner
         .iter()
@@ -85,8 +85,8 @@ pub(super) fn repartition(
     let gap = GAP_VOXELS * geometry.max_spacing();
     let between = between_objects(meshes, &owner, dims, &grid, gap)?;
     let closed: Vec<bool> = union.iter().zip(&between).map(|(&u, &b)| u || b).collect();
-    let depth = distance_to_outside(&closed, dims, grid.spacing());
-    let new_owner: Vec<u32> = power_labels(&depth, &claims, NOBODY, dims, grid.spacing())
+    let depth = distance_to_outside(&closed, dims, grid.spacing())?;
+    let new_owner: Vec<u32> = power_labels(&depth, &claims, NOBODY, dims, grid.spacing())?
         .into_iter()
         .zip(&union)
         .map(|(o, &inside)| if inside { o } else { NOBODY })

@@ -41,7 +41,9 @@ fn two_touching_tubes_come_out_valid_apart_and_each_around_its_seed() {
         for (object, other) in [(&objects[0], &objects[1]), (&objects[1], &objects[0])] {
             let report = mesh_checks::check(&object.mesh);
             assert!(report.is_valid_closed_surface(), "{number}: {report:?}");
-            assert!(crate::self_intersection::self_intersections(&object.mesh).is_empty());
+            assert!(crate::self_intersection::self_intersections(&object.mesh)
+                .unwrap()
+                .is_empty());
             let others = [obstacle_of(&other.mesh, reach)];
             assert_eq!(crossings(&object.mesh, &others).unwrap(), [] as [u32; 0]);
             // Each holds its own seed and not the other's.

@@ -377,7 +377,7 @@ mod tests {
 
     /// Marks the vertices of the mesh's intersecting triangles, as the balloon does.
     fn freeze_contacts(mesh: &TriMesh, states: &mut [VertexState]) {
-        let pairs = crate::self_intersection::self_intersections(mesh);
+        let pairs = crate::self_intersection::self_intersections(mesh).unwrap();
         assert!(!pairs.is_empty());
         for (a, b) in pairs {
             for t in [a, b] {
@@ -399,7 +399,9 @@ mod tests {
         assert!(report.is_valid_closed_surface(), "{report:?}");
         assert_eq!(report.components, 1);
         assert_eq!(report.genus(), Some(0));
-        assert!(crate::self_intersection::self_intersections(&merged).is_empty());
+        assert!(crate::self_intersection::self_intersections(&merged)
+            .unwrap()
+            .is_empty());
         // The union of two balls of radius 3 whose centres are 4 apart.
         let h: f64 = 3.0 - 2.0;
         let cap = std::f64::consts::PI * h * h * (3.0 * 3.0 - h) / 3.0;
@@ -480,7 +482,9 @@ mod tests {
             mesh = reparametrize(&mesh, &frozen(&mesh), &g, &keep(&seeds, false)).unwrap();
             let report = mesh_checks::check(&mesh);
             assert!(report.is_valid_closed_surface(), "{report:?}");
-            assert!(crate::self_intersection::self_intersections(&mesh).is_empty());
+            assert!(crate::self_intersection::self_intersections(&mesh)
+                .unwrap()
+                .is_empty());
         }
     }
 

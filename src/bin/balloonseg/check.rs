@@ -19,7 +19,7 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<ExitCode> {
     let mesh = io::read_mesh(&args.mesh)?;
     let report = mesh_checks::check(&mesh);
-    let pairs = self_intersections(&mesh).len();
+    let pairs = self_intersections(&mesh)?.len();
     let summary = json!({
         "file": crate::shown(&args.mesh),
         "vertices": report.vertices,

@@ -70,7 +70,7 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
             &[],
         )?;
         let check = mesh_checks::check(&mesh);
-        let valid = check.is_valid_closed_surface() && self_intersections(&mesh).is_empty();
+        let valid = check.is_valid_closed_surface() && self_intersections(&mesh)?.is_empty();
         let score = score_phantom(&mesh, shape, step)?;
         let genus = check.genus().map_or("-".to_string(), |g| g.to_string());
         all_good &= valid && check.genus() == Some(i64::from(shape.genus()));

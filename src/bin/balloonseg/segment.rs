@@ -171,14 +171,14 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
     if let Some(path) = &args.stats {
         let total = start.elapsed().as_secs_f64();
         let stats = match &objects[..] {
-            [one] => stats_json(&one.mesh, &one.stats, total),
+            [one] => stats_json(&one.mesh, &one.stats, total)?,
             _ => json!({
                 "objects": objects.iter().map(|o| {
-                    let mut entry = stats_json(&o.mesh, &o.stats, total);
+                    let mut entry = stats_json(&o.mesh, &o.stats, total)?;
                     entry["label"] = json!(o.label);
                     entry["seeds"] = json!(o.seeds.iter().map(|s| s.to_array()).collect::<Vec<_>>());
-                    entry
-                }).collect::<Vec<_>>(),
+                    Ok(entry)
+                }).collect::<Result<Vec<_>>>()?,
                 "stop_seeds": request.stops.iter().map(|s| s.to_array()).collect::<Vec<_>>(),
                 "seconds_total": total,
             }),
@@ -297,10 +297,10 @@ fn stats_json(
     mesh: &balloonseg::TriMesh,
     stats: &SegmentationStats,
     total: f64,
-) -> serde_json::Value {
+) -> Result<serde_json::Value> {
     let report = mesh_checks::check(mesh);
     let s = &stats.seconds;
-    json!({
+    Ok(json!({
         "vertices": report.vertices,
         "triangles": report.triangles,
         "euler_characteristic": report.euler_characteristic,
@@ -309,7 +309,7 @@ fn stats_json(
         "closed": report.closed(),
         "manifold": report.manifold(),
         "outward": report.outward(),
-        "self_intersecting_pairs": self_intersections(mesh).len(),
+        "self_intersecting_pairs": self_intersections(mesh)?.len(),
         "iterations": stats.iterations,
         "reparametrizations": stats.reparametrizations,
         "volume_mm3": report.signed_volume,
@@ -341,7 +341,7 @@ fn stats_json(
             "validation": s.validation,
             "total": total,
         },
-    })
+    }))
 }
 
 /// JSON has no infinity: an open end of the window is `null`.

@@ -110,7 +110,7 @@ fn check_simplifiable(mesh: &TriMesh) -> Result<()> {
              one to start from (repair it first)"
         )));
     }
-    let pairs = self_intersections(mesh);
+    let pairs = self_intersections(mesh)?;
     if let Some(&(a, b)) = pairs.first() {
         let what = if a == b {
             format!("triangle {a} is degenerate (its corners are collinear)")
@@ -534,7 +534,7 @@ mod tests {
         assert_eq!(after.components, before.components);
         assert_eq!(after.inward_components, before.inward_components);
         assert_eq!(after.unreferenced_vertices, 0);
-        assert!(self_intersections(&out.mesh).is_empty());
+        assert!(self_intersections(&out.mesh).unwrap().is_empty());
         let (input_to_output, output_to_input) = hausdorff_distance(input, &out.mesh, 6).unwrap();
         assert!(
             input_to_output <= max_error && output_to_input <= max_error,

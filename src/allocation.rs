@@ -1,0 +1,79 @@
+//! Fallible allocation for the buffers whose size follows from the input: one element or more
+//! per voxel of a volume or of a grid laid over a mesh (distance maps, masks, labels, smoothed
+//! bricks, marching cubes' edge tables). Those are the allocations that can reach gigabytes,
+//! and Rust's `Vec` aborts the process when one fails — inside a host application such as
+//! Slicer. Here a failure becomes [`ErrorKind::OutOfMemory`](crate::ErrorKind::OutOfMemory)
+//! (`BALLOON_OUT_OF_MEMORY` at the C ABI) naming the buffer and its size, before anything was
+//! changed. Buffers that grow with the mesh are bounded by the vertex cap and stay ordinary.
+
+use crate::error::{Error, Result};
+
+/// An empty vector with room for `capacity` elements, or an error naming `what`.
+pub(crate) fn with_capacity<T>(capacity: usize, what: &str) -> Result<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(capacity)
+        .map_err(|_| out_of_memory(capacity, std::mem::size_of::<T>(), what))?;
+    Ok(v)
+}
+
+/// `len` copies of `value` (`vec![value; len]`), or an error naming `what`.
+pub(crate) fn filled<T: Clone>(len: usize, value: T, what: &str) -> Result<Vec<T>> {
+    let mut v = with_capacity(len, what)?;
+    v.resize(len, value);
+    Ok(v)
+}
+
+/// The elements of an iterator that knows its length (as `collect` would build them), or an
+/// error naming `what` when their buffer cannot be allocated.
+pub(crate) fn collect<T>(items: impl ExactSizeIterator<Item = T>, what: &str) -> Result<Vec<T>> {
+    let mut v = with_capacity(items.len(), what)?;
+    v.extend(items);
+    Ok(v)
+}
+
+/// The elements of a parallel iterator of known length, in order, in a buffer allocated
+/// fallibly (rayon's `collect_into_vec` reuses the capacity it is given).
+pub(crate) fn par_collect<T: Send>(
+    items: impl rayon::iter::IndexedParallelIterator<Item = T>,
+    what: &str,
+) -> Result<Vec<T>> {
+    let mut v = with_capacity(items.len(), what)?;
+    items.collect_into_vec(&mut v);
+    Ok(v)
+}
+
+fn out_of_memory(count: usize, element_size: usize, what: &str) -> Error {
+    let bytes = count as f64 * element_size as f64;
+    Error::out_of_memory(format!(
+        "could not allocate {:.1} MiB for {what} ({count} elements of {element_size} bytes); \
+         free memory, crop the volume to the region of interest, or lower max_vertices",
+        bytes / (1024.0 * 1024.0)
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ErrorKind;
+    use rayon::prelude::*;
+
+    #[test]
+    fn an_impossible_buffer_is_an_error_that_names_it() {
+        let e = filled(usize::MAX / 2, 0u64, "the distance map").unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::OutOfMemory);
+        assert!(e.message().contains("for the distance map"), "{e}");
+        assert!(e.message().contains("elements of 8 bytes"), "{e}");
+    }
+
+    #[test]
+    fn the_buffers_hold_what_vec_would() {
+        assert_eq!(filled(3, 7u8, "x").unwrap(), vec![7u8; 3]);
+        assert_eq!(
+            collect((0..4).map(|i| i * 2), "x").unwrap(),
+            vec![0, 2, 4, 6]
+        );
+        let squares = par_collect((0..1000u32).into_par_iter().map(|i| i * i), "x").unwrap();
+        assert_eq!(squares, (0..1000u32).map(|i| i * i).collect::<Vec<_>>());
+        assert!(with_capacity::<f64>(10, "x").unwrap().capacity() >= 10);
+    }
+}

@@ -1,0 +1,251 @@
+//! Allocation failure at the C ABI. This test binary's global allocator refuses, on demand,
+//! the n-th allocation of at least `LARGE` bytes — the size of the buffers that grow with a
+//! volume or a grid, well above anything the small test mesh needs. For every n a call
+//! makes, the call must return `BALLOON_OUT_OF_MEMORY` with a message (never abort the host)
+//! and leave the handle usable: the same call then succeeds with the same mesh as a run
+//! that was never refused.
+
+#![cfg(target_os = "linux")]
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::ffi::c_void;
+use std::ptr;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+use balloonseg::ffi::*;
+
+const LARGE: usize = 256 * 1024;
+const NEVER: usize = usize::MAX;
+
+/// Counts the large allocations and refuses the one numbered `REFUSE` (from 0).
+struct Refusing;
+
+static LARGE_SEEN: AtomicUsize = AtomicUsize::new(0);
+static REFUSE: AtomicUsize = AtomicUsize::new(NEVER);
+static REFUSED: AtomicUsize = AtomicUsize::new(0);
+
+impl Refusing {
+    fn refuses(size: usize) -> bool {
+        if size < LARGE {
+            return false;
+        }
+        let n = LARGE_SEEN.fetch_add(1, Ordering::SeqCst);
+        let refuse = n == REFUSE.load(Ordering::SeqCst);
+        if refuse {
+            REFUSED.fetch_add(1, Ordering::SeqCst);
+        }
+        refuse
+    }
+}
+
+unsafe impl GlobalAlloc for Refusing {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if Self::refuses(layout.size()) {
+            return ptr::null_mut();
+        }
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        if Self::refuses(layout.size()) {
+            return ptr::null_mut();
+        }
+        unsafe { System.alloc_zeroed(layout) }
+    }
+
+    unsafe fn dealloc(&self, p: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(p, layout) }
+    }
+
+    unsafe fn realloc(&self, p: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        if new_size > layout.size() && Self::refuses(new_size) {
+            return ptr::null_mut();
+        }
+        unsafe { System.realloc(p, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: Refusing = Refusing;
+
+/// One test at a time: the refusal counters are global.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+/// Runs `call` with the `n`-th large allocation refused; returns its status and whether a
+/// refusal happened.
+fn refusing_the(n: usize, call: impl FnOnce() -> BalloonStatus) -> (BalloonStatus, bool) {
+    LARGE_SEEN.store(0, Ordering::SeqCst);
+    REFUSED.store(0, Ordering::SeqCst);
+    REFUSE.store(n, Ordering::SeqCst);
+    let status = call();
+    REFUSE.store(NEVER, Ordering::SeqCst);
+    (status, REFUSED.load(Ordering::SeqCst) > 0)
+}
+
+fn last_error() -> String {
+    let mut buffer = vec![0u8; 1024];
+    let n = unsafe { balloon_last_error_message(buffer.as_mut_ptr().cast(), buffer.len()) };
+    buffer.truncate(n.min(1023));
+    String::from_utf8_lossy(&buffer).into_owned()
+}
+
+const IDENTITY: [f64; 9] = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0];
+const DIMS: [usize; 3] = [72, 64, 60];
+const SPACING: [f64; 3] = [1.0, 1.0, 1.25];
+const CENTRE: [f64; 3] = [36.0, 32.0, 37.5];
+
+/// A bright ball of radius 16 mm with a one-millimetre ramp at its border, in anisotropic
+/// voxels: about 280k voxels, so that every voxel-sized buffer is large, and a balloon of a
+/// few thousand vertices, so that no mesh-sized one is.
+fn ball() -> Vec<f32> {
+    let mut voxels = Vec::with_capacity(DIMS.iter().product());
+    for k in 0..DIMS[2] {
+        for j in 0..DIMS[1] {
+            for i in 0..DIMS[0] {
+                let p = [i, j, k].map(|n| n as f64);
+                let r = (0..3)
+                    .map(|a| (p[a] * SPACING[a] - CENTRE[a]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
+                voxels.push((100.0 + 100.0 * (16.0 - r).clamp(-1.0, 1.0)) as f32);
+            }
+        }
+    }
+    voxels
+}
+
+fn described(voxels: &[f32]) -> BalloonVolume {
+    BalloonVolume {
+        data: voxels.as_ptr().cast::<c_void>(),
+        scalar_type: BalloonScalarType::BALLOON_SCALAR_F32 as u32,
+        dims: DIMS,
+        strides: [1, DIMS[0] as isize, (DIMS[0] * DIMS[1]) as isize],
+        spacing: SPACING,
+        origin: [0.0; 3],
+        direction: IDENTITY,
+    }
+}
+
+/// The balloon's points and triangles as the handle shows them.
+fn shown(s: *const BalloonSegmenter) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let mut mesh = std::mem::MaybeUninit::<BalloonMesh>::zeroed();
+    let status = unsafe { balloon_mesh(s, mesh.as_mut_ptr()) };
+    assert_eq!(status, BalloonStatus::BALLOON_OK, "{}", last_error());
+    let mesh = unsafe { mesh.assume_init() };
+    let points = unsafe { std::slice::from_raw_parts(mesh.points, 3 * mesh.point_count) };
+    let triangles = unsafe { std::slice::from_raw_parts(mesh.triangles, 3 * mesh.triangle_count) };
+    (
+        points.chunks(3).map(|p| [p[0], p[1], p[2]]).collect(),
+        triangles.chunks(3).map(|t| [t[0], t[1], t[2]]).collect(),
+    )
+}
+
+fn init(volume: &BalloonVolume) -> *mut BalloonSegmenter {
+    let mut s = ptr::null_mut();
+    let status = unsafe { balloon_init(volume, ptr::null(), CENTRE.as_ptr(), &mut s) };
+    assert_eq!(status, BalloonStatus::BALLOON_OK, "{}", last_error());
+    s
+}
+
+/// Checks what a refused call reported.
+fn assert_refused(status: BalloonStatus, n: usize) {
+    let message = last_error();
+    assert_eq!(
+        status,
+        BalloonStatus::BALLOON_OUT_OF_MEMORY,
+        "large allocation {n} was refused: {message}"
+    );
+    assert!(message.contains("could not allocate"), "{message}");
+}
+
+/// The mesh `s` shows is closed, 2-manifold and outward.
+fn assert_valid(s: *const BalloonSegmenter) {
+    let (points, triangles) = shown(s);
+    let flat_points: Vec<f64> = points.concat();
+    let flat_triangles: Vec<u32> = triangles.concat();
+    let mut report: BalloonMeshReport = unsafe { std::mem::zeroed() };
+    report.struct_size = std::mem::size_of::<BalloonMeshReport>();
+    let status = unsafe {
+        balloon_mesh_check(
+            flat_points.as_ptr(),
+            points.len(),
+            flat_triangles.as_ptr(),
+            triangles.len(),
+            &mut report,
+        )
+    };
+    assert_eq!(status, BalloonStatus::BALLOON_OK, "{}", last_error());
+    assert!(
+        report.closed != 0 && report.manifold != 0 && report.outward != 0,
+        "{report:?}"
+    );
+    assert_eq!(report.self_intersecting_pairs, 0);
+}
+
+#[test]
+fn every_large_allocation_of_a_segmentation_can_fail_without_harm() {
+    let _serial = SERIAL.lock().unwrap();
+    let voxels = ball();
+    let volume = described(&voxels);
+    let reference = {
+        let s = init(&volume);
+        assert_eq!(unsafe { balloon_segment(s) }, BalloonStatus::BALLOON_OK);
+        let mesh = shown(s);
+        unsafe { balloon_free(s) };
+        mesh
+    };
+    assert!(reference.1.len() > 1000, "{} triangles", reference.1.len());
+
+    let mut refused_inits = 0;
+    loop {
+        let mut s = ptr::null_mut();
+        let (status, refused) = refusing_the(refused_inits, || unsafe {
+            balloon_init(&volume, ptr::null(), CENTRE.as_ptr(), &mut s)
+        });
+        if !refused {
+            assert_eq!(status, BalloonStatus::BALLOON_OK, "{}", last_error());
+            unsafe { balloon_free(s) };
+            break;
+        }
+        assert_refused(status, refused_inits);
+        assert!(s.is_null(), "a failed balloon_init handed out a handle");
+        refused_inits += 1;
+    }
+
+    let mut refused_runs = 0;
+    loop {
+        let s = init(&volume);
+        let (status, refused) = refusing_the(refused_runs, || unsafe { balloon_segment(s) });
+        if !refused {
+            assert_eq!(status, BalloonStatus::BALLOON_OK, "{}", last_error());
+            assert!(
+                shown(s) == reference,
+                "the counting allocator changed the result"
+            );
+            unsafe { balloon_free(s) };
+            break;
+        }
+        assert_refused(status, refused_runs);
+        // The handle stays usable: it shows the last completed step, and goes on to a valid
+        // result.
+        assert_valid(s);
+        assert_eq!(
+            unsafe { balloon_segment(s) },
+            BalloonStatus::BALLOON_OK,
+            "{}",
+            last_error()
+        );
+        assert_valid(s);
+        unsafe { balloon_free(s) };
+        refused_runs += 1;
+    }
+    eprintln!(
+        "large allocations refused one at a time: {refused_inits} in balloon_init, \
+         {refused_runs} in balloon_segment"
+    );
+    assert!(
+        refused_runs > 0,
+        "no allocation of {LARGE} bytes: the test proves nothing"
+    );
+}
