@@ -115,6 +115,18 @@ fn ball() -> Vec<f32> {
     voxels
 }
 
+const WAVES: usize = 80;
+
+/// A field whose isosurfaces wind through the whole grid: a large mesh from a small volume.
+fn waves() -> Vec<f32> {
+    (0..WAVES.pow(3))
+        .map(|n| {
+            let [i, j, k] = [n % WAVES, n / WAVES % WAVES, n / WAVES / WAVES].map(|x| x as f32);
+            (0.45 * i).sin() + (0.45 * j).sin() + (0.45 * k).sin()
+        })
+        .collect()
+}
+
 fn described(voxels: &[f32]) -> BalloonVolume {
     BalloonVolume {
         data: voxels.as_ptr().cast::<c_void>(),
@@ -185,7 +197,7 @@ fn assert_valid(s: *const BalloonSegmenter) {
 
 #[test]
 fn every_large_allocation_of_a_segmentation_can_fail_without_harm() {
-    let _serial = SERIAL.lock().unwrap();
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
     let voxels = ball();
     let volume = described(&voxels);
     let reference = {
@@ -248,4 +260,99 @@ fn every_large_allocation_of_a_segmentation_can_fail_without_harm() {
         refused_runs > 0,
         "no allocation of {LARGE} bytes: the test proves nothing"
     );
+}
+
+/// Calls `call` with each of its large allocations refused in turn, until a call refuses none
+/// and succeeds; `out` is the handle the call writes, which a refused call must leave NULL.
+/// Returns how many large allocations the call makes.
+fn refuse_each<T>(
+    mut call: impl FnMut(&mut *mut T) -> BalloonStatus,
+    free: impl Fn(*mut T),
+) -> usize {
+    for n in 0.. {
+        let mut out = ptr::null_mut();
+        let (status, refused) = refusing_the(n, || call(&mut out));
+        if !refused {
+            assert_eq!(status, BalloonStatus::BALLOON_OK, "{}", last_error());
+            free(out);
+            return n;
+        }
+        assert_refused(status, n);
+        assert!(out.is_null(), "a refused call handed out a result");
+    }
+    unreachable!()
+}
+
+#[test]
+fn every_large_allocation_of_the_kernels_can_fail_without_harm() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let voxels = ball();
+    let volume = described(&voxels);
+    let s = init(&volume);
+    assert_eq!(unsafe { balloon_segment(s) }, BalloonStatus::BALLOON_OK);
+    let (points, triangles) = shown(s);
+    unsafe { balloon_free(s) };
+    let points: Vec<f64> = points.concat();
+    let triangles: Vec<u32> = triangles.concat();
+    let (np, nt) = (points.len() / 3, triangles.len() / 3);
+
+    let waves = waves();
+    let waves_volume = BalloonVolume {
+        dims: [WAVES; 3],
+        strides: [1, WAVES as isize, (WAVES * WAVES) as isize],
+        ..described(&waves)
+    };
+    let isosurface = refuse_each(
+        |out| unsafe { balloon_marching_cubes(&waves_volume, 0.1, 2, out) },
+        |m| unsafe { balloon_trimesh_free(m) },
+    );
+    let simplified = refuse_each(
+        |out| unsafe { balloon_simplify(points.as_ptr(), np, triangles.as_ptr(), nt, 0.2, out) },
+        |m| unsafe { balloon_trimesh_free(m) },
+    );
+    let pairs = refuse_each(
+        |_: &mut *mut u8| {
+            let mut count = 0;
+            unsafe {
+                balloon_self_intersections(
+                    points.as_ptr(),
+                    np,
+                    triangles.as_ptr(),
+                    nt,
+                    ptr::null_mut(),
+                    0,
+                    &mut count,
+                )
+            }
+        },
+        |_| {},
+    );
+    let seed = BalloonObjectSeeds {
+        label: 1,
+        points: CENTRE.as_ptr(),
+        point_count: 1,
+    };
+    let objects = refuse_each(
+        |out| unsafe {
+            balloon_segment_objects(
+                &volume,
+                ptr::null(),
+                &seed,
+                1,
+                ptr::null(),
+                0,
+                ptr::null(),
+                None,
+                ptr::null_mut(),
+                out,
+            )
+        },
+        |r| unsafe { balloon_objects_free(r) },
+    );
+    eprintln!(
+        "large allocations refused one at a time: {isosurface} in balloon_marching_cubes, \
+         {simplified} in balloon_simplify, {pairs} in balloon_self_intersections, {objects} in \
+         balloon_segment_objects"
+    );
+    assert!(isosurface > 0 && simplified > 0 && pairs > 0 && objects > 0);
 }

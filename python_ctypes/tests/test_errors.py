@@ -157,6 +157,10 @@ def test_the_hierarchy():
     assert issubclass(balloonseg.PanicError, balloonseg.InternalError)
     e = balloonseg.errors.error_for_status(8, "leaked")
     assert type(e) is balloonseg.LeakError and e.status == 8 and str(e) == "leaked"
+    # Code that handles running out of memory the Python way catches the library's too.
+    e = balloonseg.errors.error_for_status(11, "could not allocate 9000.0 MiB for a distance map")
+    assert type(e) is balloonseg.OutOfMemoryError and e.status == 11
+    assert isinstance(e, MemoryError) and isinstance(e, balloonseg.BalloonError)
 
 
 def test_kernel_and_step_arguments_are_checked(ball):

@@ -54,6 +54,7 @@ use std::ops::Range;
 use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 
+use crate::allocation;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::volume::{Scalar, ScalarType, TypedVolume, Volume, VoxelVisitor};
@@ -90,11 +91,11 @@ impl VoxelVisitor for Extract {
         // when it rounded down, the T values at or above the level are those strictly above it.
         let threshold = T::from_f64(self.level);
         let bits = if threshold.to_f64() < self.level {
-            classify::<T, true>(volume, threshold, &grid)
+            classify::<T, true>(volume, threshold, &grid)?
         } else {
-            classify::<T, false>(volume, threshold, &grid)
+            classify::<T, false>(volume, threshold, &grid)?
         };
-        let counted = count(&grid, &bits);
+        let counted = count(&grid, &bits)?;
         let layout = Layout::new(&counted.rows)?;
         let geometry = volume.geometry();
         Emitter {
@@ -205,9 +206,9 @@ fn classify<T: Scalar, const STRICT: bool>(
     volume: &TypedVolume<'_, T>,
     threshold: T,
     grid: &Grid,
-) -> Bits {
-    let mut words = vec![0u64; grid.rows() * grid.words];
-    let mut state = vec![OUTSIDE; grid.rows()];
+) -> Result<Bits> {
+    let mut words = allocation::filled(grid.rows() * grid.words, 0u64, "the inside bits")?;
+    let mut state = allocation::filled(grid.rows(), OUTSIDE, "the rows' states")?;
     let per_chunk = grid.rows_per_chunk();
     words
         .par_chunks_mut(per_chunk * grid.words)
@@ -222,11 +223,11 @@ fn classify<T: Scalar, const STRICT: bool>(
                 *row_state = classify_row::<T, STRICT>(reader.row(j, k), threshold, row_words);
             }
         });
-    Bits {
+    Ok(Bits {
         words,
         state,
         per_row: grid.words,
-    }
+    })
 }
 
 fn classify_row<T: Scalar, const STRICT: bool>(values: &[T], threshold: T, out: &mut [u64]) -> u8 {
@@ -466,8 +467,8 @@ struct Counted {
 }
 
 /// Pass 2.
-fn count(grid: &Grid, bits: &Bits) -> Counted {
-    let mut rows = vec![RowCounts::default(); grid.rows()];
+fn count(grid: &Grid, bits: &Bits) -> Result<Counted> {
+    let mut rows = allocation::filled(grid.rows(), RowCounts::default(), "the rows' counts")?;
     let zeros = vec![0u64; grid.words];
     let cases = rows
         .par_chunks_mut(grid.rows_per_chunk())
@@ -475,12 +476,20 @@ fn count(grid: &Grid, bits: &Bits) -> Counted {
         .map(|(counts, chunk)| {
             let mut cases = Vec::new();
             for (out, row) in counts.iter_mut().zip(chunk) {
+                // Room for a case per cube of the row, so that the row's pushes cannot fail.
+                cases.try_reserve(grid.nx).map_err(|_| {
+                    Error::out_of_memory(format!(
+                        "could not allocate the cases of {} active cubes; free memory or \
+                         extract the isosurface from sub-volumes",
+                        cases.len() + grid.nx
+                    ))
+                })?;
                 *out = count_row(grid, bits, &zeros, row, &mut cases);
             }
-            cases
+            Ok(cases)
         })
-        .collect();
-    Counted { rows, cases }
+        .collect::<Result<_>>()?;
+    Ok(Counted { rows, cases })
 }
 
 fn count_row(
@@ -519,8 +528,8 @@ struct Layout {
 
 impl Layout {
     fn new(counts: &[RowCounts]) -> Result<Layout> {
-        let mut first_point = Vec::with_capacity(counts.len() + 1);
-        let mut first_triangle = Vec::with_capacity(counts.len() + 1);
+        let mut first_point = allocation::with_capacity(counts.len() + 1, "the rows' layout")?;
+        let mut first_triangle = allocation::with_capacity(counts.len() + 1, "the rows' layout")?;
         let (mut points, mut triangles) = (0u64, 0usize);
         for c in counts {
             first_point.push(points as u32);
@@ -570,8 +579,10 @@ impl<T: Scalar> Emitter<'_, '_, T> {
         let n_points = self.layout.first_point[rows] as usize;
         let n_triangles = self.layout.first_triangle[rows];
         // Written in place, in parallel: zero-filling first would cost a pass over the output.
-        let mut points: Vec<DVec3> = Vec::with_capacity(n_points);
-        let mut triangles: Vec<[u32; 3]> = Vec::with_capacity(n_triangles);
+        let mut points: Vec<DVec3> =
+            allocation::with_capacity(n_points, "the isosurface's points")?;
+        let mut triangles: Vec<[u32; 3]> =
+            allocation::with_capacity(n_triangles, "the isosurface's triangles")?;
         let mut points_left = &mut points.spare_capacity_mut()[..n_points];
         let mut triangles_left = &mut triangles.spare_capacity_mut()[..n_triangles];
         let mut jobs = Vec::with_capacity(self.counted.cases.len());

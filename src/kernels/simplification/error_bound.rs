@@ -32,7 +32,9 @@
 use glam::DVec3;
 
 use super::triangle_grid::{Bounds, TriangleGrid};
+use crate::allocation;
 use crate::closest_point::Triangle;
+use crate::error::Result;
 use crate::mesh::TriMesh;
 use crate::mesh_checks::component_volumes;
 
@@ -77,23 +79,24 @@ pub(super) struct InputSurface {
 }
 
 impl InputSurface {
-    pub(super) fn new(mesh: &TriMesh, cell: f64) -> InputSurface {
+    pub(super) fn new(mesh: &TriMesh, cell: f64) -> Result<InputSurface> {
+        let count = mesh.triangles().len();
         let mut grid = TriangleGrid::new(cell);
-        let mut triangles = Vec::with_capacity(mesh.triangles().len());
-        let mut bounds = Vec::with_capacity(mesh.triangles().len());
+        let mut triangles = allocation::with_capacity(count, "the input's triangles")?;
+        let mut bounds = allocation::with_capacity(count, "the input's boxes")?;
         for t in 0..mesh.triangles().len() {
             let corners = mesh.corners(t);
             let b = Bounds::of(corners);
-            grid.insert(t as u32, &b);
+            grid.try_insert(t as u32, &b)?;
             triangles.push(Target::new(corners, mesh.triangles()[t]));
             bounds.push(b);
         }
-        InputSurface {
+        Ok(InputSurface {
             triangles,
             bounds,
             components: component_volumes(mesh).0,
             grid,
-        }
+        })
     }
 
     /// The component of input triangle `t` (and of every output triangle that keeps its id).
@@ -143,24 +146,24 @@ pub(super) struct Attachments {
 
 impl Attachments {
     /// Each input triangle whole, on itself.
-    pub(super) fn new(mesh: &TriMesh) -> Attachments {
-        let input: Vec<Piece> = (0..mesh.triangles().len())
-            .map(|t| mesh.corners(t))
-            .collect();
-        Attachments {
-            pieces: input
-                .iter()
-                .enumerate()
-                .map(|(t, &corners)| {
+    pub(super) fn new(mesh: &TriMesh) -> Result<Attachments> {
+        let input = allocation::collect(
+            (0..mesh.triangles().len()).map(|t| mesh.corners(t)),
+            "the input's pieces",
+        )?;
+        Ok(Attachments {
+            pieces: allocation::collect(
+                input.iter().enumerate().map(|(t, &corners)| {
                     vec![Attached {
                         source: t as u32,
                         corners,
                     }]
-                })
-                .collect(),
-            fragments: vec![1; input.len()],
+                }),
+                "the pieces of each triangle",
+            )?,
+            fragments: allocation::filled(input.len(), 1, "the fragment counts")?,
             input,
-        }
+        })
     }
 
     /// The pieces of the output triangles `from` placed on `targets` (the triangles that
@@ -500,7 +503,7 @@ mod tests {
 
     #[test]
     fn a_triangle_over_two_input_triangles_is_covered_when_close_and_not_when_far() {
-        let input = InputSurface::new(&square_mesh(0.0), 0.5);
+        let input = InputSurface::new(&square_mesh(0.0), 0.5).unwrap();
         let mut scratch = Vec::new();
         let over = |z: f64| {
             [

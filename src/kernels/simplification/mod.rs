@@ -35,6 +35,7 @@ use glam::DVec3;
 use self::error_bound::{tested_limit, Attached, Attachments, InputSurface, Target};
 use self::quadric::Quadric;
 use self::triangle_grid::{Bounds, TriangleGrid};
+use crate::allocation;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::mesh_checks::check;
@@ -76,9 +77,9 @@ pub fn simplify(mesh: &TriMesh, max_error_mm: f64) -> Result<Simplified> {
         )));
     }
     check_simplifiable(mesh)?;
-    let mut simplifier = Simplifier::new(mesh, max_error_mm);
-    simplifier.run();
-    Ok(simplifier.into_result())
+    let mut simplifier = Simplifier::new(mesh, max_error_mm)?;
+    simplifier.run()?;
+    simplifier.into_result()
 }
 
 fn check_simplifiable(mesh: &TriMesh) -> Result<()> {
@@ -161,11 +162,11 @@ struct Star {
 }
 
 impl Simplifier {
-    fn new(mesh: &TriMesh, max_error: f64) -> Simplifier {
-        let points = mesh.points().to_vec();
-        let triangles = mesh.triangles().to_vec();
-        let mut around = vec![Vec::new(); points.len()];
-        let mut quadrics = vec![Quadric::default(); points.len()];
+    fn new(mesh: &TriMesh, max_error: f64) -> Result<Simplifier> {
+        let points = allocation::collect(mesh.points().iter().copied(), "the points")?;
+        let triangles = allocation::collect(mesh.triangles().iter().copied(), "the triangles")?;
+        let mut around = allocation::filled(points.len(), Vec::new(), "the vertices' triangles")?;
+        let mut quadrics = allocation::filled(points.len(), Quadric::default(), "the quadrics")?;
         let mut edge_length_sum = 0.0;
         for (t, tri) in triangles.iter().enumerate() {
             let corners = mesh.corners(t);
@@ -181,21 +182,25 @@ impl Simplifier {
         // the grid's oversized list absorbs.
         let cell = (2.0 * mean_edge).max(max_error);
         let mut grid = TriangleGrid::new(cell);
-        let bounds: Vec<Bounds> = (0..triangles.len())
-            .map(|t| Bounds::of(mesh.corners(t)))
-            .collect();
+        let bounds = allocation::collect(
+            (0..triangles.len()).map(|t| Bounds::of(mesh.corners(t))),
+            "the triangles' boxes",
+        )?;
         for (t, b) in bounds.iter().enumerate() {
-            grid.insert(t as u32, b);
+            grid.try_insert(t as u32, b)?;
         }
         let mut simplifier = Simplifier {
-            pieces: Attachments::new(mesh),
-            alive: vec![true; triangles.len()],
-            stamps: vec![0; points.len()],
-            merged_into: (0..points.len() as u32).collect(),
-            input: InputSurface::new(mesh, mean_edge.max(max_error)),
+            pieces: Attachments::new(mesh)?,
+            alive: allocation::filled(triangles.len(), true, "the triangles' flags")?,
+            stamps: allocation::filled(points.len(), 0, "the vertices' stamps")?,
+            merged_into: allocation::collect(0..points.len() as u32, "the vertex map")?,
+            input: InputSurface::new(mesh, mean_edge.max(max_error))?,
             limit: tested_limit(max_error),
             cos_min_angle: MIN_ANGLE_DEGREES.to_radians().cos(),
-            queue: BinaryHeap::new(),
+            queue: BinaryHeap::from(allocation::with_capacity(
+                3 * points.len(),
+                "the queue of collapses",
+            )?),
             scratch: Vec::new(),
             points,
             triangles,
@@ -207,14 +212,14 @@ impl Simplifier {
         for v in 0..simplifier.points.len() as u32 {
             for w in simplifier.neighbours(v) {
                 if v < w {
-                    simplifier.enqueue(v, w);
+                    simplifier.enqueue(v, w)?;
                 }
             }
         }
-        simplifier
+        Ok(simplifier)
     }
 
-    fn run(&mut self) {
+    fn run(&mut self) -> Result<()> {
         while let Some(Reverse((_, a, b, stamp_a, stamp_b))) = self.queue.pop() {
             if self.stamps[a as usize] != stamp_a
                 || self.stamps[b as usize] != stamp_b
@@ -223,8 +228,9 @@ impl Simplifier {
             {
                 continue;
             }
-            self.try_collapse(a, b);
+            self.try_collapse(a, b)?;
         }
+        Ok(())
     }
 
     fn corners(&self, t: u32) -> [DVec3; 3] {
@@ -243,7 +249,15 @@ impl Simplifier {
         found
     }
 
-    fn enqueue(&mut self, a: u32, b: u32) {
+    fn enqueue(&mut self, a: u32, b: u32) -> Result<()> {
+        // Stale entries stay queued until popped, so the queue outgrows the mesh.
+        self.queue.try_reserve(1).map_err(|_| {
+            Error::out_of_memory(format!(
+                "could not allocate the queue of collapses beyond {} entries; free memory or \
+                 simplify a smaller mesh",
+                self.queue.len()
+            ))
+        })?;
         let q = self.quadrics[a as usize] + self.quadrics[b as usize];
         let cost = q.placements(self.points[a as usize], self.points[b as usize])[0].0;
         // Non-negative floats order as their bits do.
@@ -254,6 +268,7 @@ impl Simplifier {
             self.stamps[a as usize],
             self.stamps[b as usize],
         )));
+        Ok(())
     }
 
     /// The star of the edge, or `None` when collapsing it would change the topology.
@@ -297,9 +312,10 @@ impl Simplifier {
         })
     }
 
-    fn try_collapse(&mut self, a: u32, b: u32) -> bool {
+    /// Collapses `a`–`b` at the first placement that keeps every guarantee, if one does.
+    fn try_collapse(&mut self, a: u32, b: u32) -> Result<()> {
         let Some(star) = self.star(a, b) else {
-            return false;
+            return Ok(());
         };
         let q = self.quadrics[a as usize] + self.quadrics[b as usize];
         let mut tried = q.placements(self.points[a as usize], self.points[b as usize]);
@@ -321,11 +337,10 @@ impl Simplifier {
         tried.extend([(0.0, best + offset), (0.0, best - offset)]);
         for (_, position) in tried {
             if let Some(pieces) = self.admissible(&star, position) {
-                self.commit(&star, position, pieces);
-                return true;
+                return self.commit(&star, position, pieces);
             }
         }
-        false
+        Ok(())
     }
 
     /// A moved triangle's vertices and corners after the collapse.
@@ -424,7 +439,7 @@ impl Simplifier {
         found
     }
 
-    fn commit(&mut self, star: &Star, position: DVec3, pieces: Vec<Vec<Attached>>) {
+    fn commit(&mut self, star: &Star, position: DVec3, pieces: Vec<Vec<Attached>>) -> Result<()> {
         let (keep, remove) = (star.keep, star.remove);
         for &t in &star.deleted {
             self.alive[t as usize] = false;
@@ -469,12 +484,13 @@ impl Simplifier {
         edges.sort_unstable();
         edges.dedup();
         for (v, w) in edges {
-            self.enqueue(v, w);
+            self.enqueue(v, w)?;
         }
+        Ok(())
     }
 
-    fn into_result(self) -> Simplified {
-        let mut new_index = vec![NO_VERTEX; self.points.len()];
+    fn into_result(self) -> Result<Simplified> {
+        let mut new_index = allocation::filled(self.points.len(), NO_VERTEX, "the vertex map")?;
         let mut points = Vec::new();
         let mut triangles = Vec::new();
         for (t, tri) in self.triangles.iter().enumerate() {
@@ -508,7 +524,7 @@ impl Simplifier {
         let vertex_map = root.iter().map(|&r| new_index[r as usize]).collect();
         let mesh = TriMesh::new(points, triangles)
             .expect("collapses keep every index in range and every point finite");
-        Simplified { mesh, vertex_map }
+        Ok(Simplified { mesh, vertex_map })
     }
 }
 

@@ -11,6 +11,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use crate::balloon::fast_hash::FastHash;
+use crate::error::{Error, Result};
 
 /// The most cells one box enters; larger boxes go to the oversized list.
 const MAX_CELLS_PER_BOX: i64 = 512;
@@ -90,6 +91,23 @@ impl TriangleGrid {
             }),
             None => self.oversized.push(id),
         }
+    }
+
+    /// `insert`, with the room for new cells allocated fallibly: for building a grid, whose
+    /// cells grow with the mesh. (Once built, a collapse takes out as many cells as it adds.)
+    pub(super) fn try_insert(&mut self, id: u32, b: &Bounds) -> Result<()> {
+        let cells = self.cell_range(b).map_or(0, |(lo, hi)| {
+            (0..3).map(|k| (hi[k] - lo[k] + 1) as usize).product()
+        });
+        self.cells.try_reserve(cells).map_err(|_| {
+            Error::out_of_memory(format!(
+                "could not allocate the cells of a grid over {} cells; free memory or simplify \
+                 a smaller mesh",
+                self.cells.len() + cells
+            ))
+        })?;
+        self.insert(id, b);
+        Ok(())
     }
 
     /// Removes a triangle entered with the same bounds.
