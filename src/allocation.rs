@@ -1,19 +1,31 @@
 //! Fallible allocation for the buffers whose size follows from the input: one element or more
-//! per voxel of a volume or of a grid laid over a mesh (distance maps, masks, labels, smoothed
-//! bricks, marching cubes' edge tables). Those are the allocations that can reach gigabytes,
-//! and Rust's `Vec` aborts the process when one fails — inside a host application such as
-//! Slicer. Here a failure becomes [`ErrorKind::OutOfMemory`](crate::ErrorKind::OutOfMemory)
-//! (`BALLOON_OUT_OF_MEMORY` at the C ABI) naming the buffer and its size, before anything was
-//! changed. Buffers that grow with the mesh are bounded by the vertex cap and stay ordinary.
+//! per voxel of a volume or of a grid laid over the balloon (distance maps, masks, labels,
+//! marching cubes' bits and cases), or per triangle of a caller's mesh (self-intersection
+//! search, simplification). Those are the allocations that can reach gigabytes, and Rust's `Vec`
+//! aborts the process when one fails — inside a host application such as Slicer. Here a failure
+//! becomes [`ErrorKind::OutOfMemory`](crate::ErrorKind::OutOfMemory) (`BALLOON_OUT_OF_MEMORY` at
+//! the C ABI) naming the buffer and its size. The balloon's own arrays, which the vertex cap
+//! bounds, stay ordinary allocations.
+
+use std::collections::TryReserveError;
 
 use crate::error::{Error, Result};
 
 /// An empty vector with room for `capacity` elements, or an error naming `what`.
 pub(crate) fn with_capacity<T>(capacity: usize, what: &str) -> Result<Vec<T>> {
     let mut v = Vec::new();
-    v.try_reserve_exact(capacity)
-        .map_err(|_| out_of_memory(capacity, std::mem::size_of::<T>(), what))?;
+    reserved::<T>(v.try_reserve_exact(capacity), capacity, what)?;
     Ok(v)
+}
+
+/// The outcome of a collection's `try_reserve` towards `count` elements of `T` in all, as an
+/// error naming `what` when it failed: for buffers that grow in steps (a queue, a hash map).
+pub(crate) fn reserved<T>(
+    outcome: std::result::Result<(), TryReserveError>,
+    count: usize,
+    what: &str,
+) -> Result<()> {
+    outcome.map_err(|_| out_of_memory(count, std::mem::size_of::<T>(), what))
 }
 
 /// `len` copies of `value` (`vec![value; len]`), or an error naming `what`.
@@ -27,6 +39,17 @@ pub(crate) fn filled<T: Clone>(len: usize, value: T, what: &str) -> Result<Vec<T
 /// error naming `what` when their buffer cannot be allocated.
 pub(crate) fn collect<T>(items: impl ExactSizeIterator<Item = T>, what: &str) -> Result<Vec<T>> {
     let mut v = with_capacity(items.len(), what)?;
+    v.extend(items);
+    Ok(v)
+}
+
+/// The elements a filter lets through, counted in a first pass so that their buffer is
+/// allocated once (`items` must give the same elements twice).
+pub(crate) fn collect_counted<T>(
+    items: impl Iterator<Item = T> + Clone,
+    what: &str,
+) -> Result<Vec<T>> {
+    let mut v = with_capacity(items.clone().count(), what)?;
     v.extend(items);
     Ok(v)
 }
@@ -46,7 +69,8 @@ fn out_of_memory(count: usize, element_size: usize, what: &str) -> Error {
     let bytes = count as f64 * element_size as f64;
     Error::out_of_memory(format!(
         "could not allocate {:.1} MiB for {what} ({count} elements of {element_size} bytes); \
-         free memory, crop the volume to the region of interest, or lower max_vertices",
+         free memory, or give a smaller input: a volume cropped to the region of interest, a \
+         lower max_vertices, a smaller mesh",
         bytes / (1024.0 * 1024.0)
     ))
 }
@@ -75,5 +99,7 @@ mod tests {
         let squares = par_collect((0..1000u32).into_par_iter().map(|i| i * i), "x").unwrap();
         assert_eq!(squares, (0..1000u32).map(|i| i * i).collect::<Vec<_>>());
         assert!(with_capacity::<f64>(10, "x").unwrap().capacity() >= 10);
+        let odd = collect_counted((0..10).filter(|i| i % 2 == 1), "x").unwrap();
+        assert_eq!((odd.len(), odd.capacity()), (5, 5));
     }
 }

@@ -336,9 +336,10 @@ fn grow_cores(
 ) -> Result<Vec<u32>> {
     let grid = Grid(dims);
     let mut label = cores;
-    let unlabelled = (0..inside.len()).filter(|&n| inside[n] && label[n] == u32::MAX);
-    let mut order = allocation::with_capacity(unlabelled.clone().count(), "the flood's order")?;
-    order.extend(unlabelled);
+    let mut order = allocation::collect_counted(
+        (0..inside.len()).filter(|&n| inside[n] && label[n] == u32::MAX),
+        "the flood's order",
+    )?;
     order.sort_unstable_by(|&a, &b| depth[b].total_cmp(&depth[a]).then(a.cmp(&b)));
     let mut admitted = allocation::filled(inside.len(), false, "the flood's admitted voxels")?;
     let mut waiting: Vec<usize> = Vec::new();
@@ -402,9 +403,10 @@ fn watershed(
     voxel: f64,
 ) -> Result<(Vec<u32>, Vec<f64>)> {
     let grid = Grid(dims);
-    let inside = (0..depth.len()).filter(|&n| depth[n] > 0.0);
-    let mut order = allocation::with_capacity(inside.clone().count(), "the watershed's order")?;
-    order.extend(inside);
+    let mut order = allocation::collect_counted(
+        (0..depth.len()).filter(|&n| depth[n] > 0.0),
+        "the watershed's order",
+    )?;
     order.sort_unstable_by(|&a, &b| depth[b].total_cmp(&depth[a]).then(a.cmp(&b)));
     let mut label = allocation::filled(depth.len(), u32::MAX, "the watershed's labels")?;
     let mut sets = Basins::default();

@@ -477,13 +477,8 @@ fn count(grid: &Grid, bits: &Bits) -> Result<Counted> {
             let mut cases = Vec::new();
             for (out, row) in counts.iter_mut().zip(chunk) {
                 // Room for a case per cube of the row, so that the row's pushes cannot fail.
-                cases.try_reserve(grid.nx).map_err(|_| {
-                    Error::out_of_memory(format!(
-                        "could not allocate the cases of {} active cubes; free memory or \
-                         extract the isosurface from sub-volumes",
-                        cases.len() + grid.nx
-                    ))
-                })?;
+                let room = cases.len() + grid.nx;
+                allocation::reserved::<u8>(cases.try_reserve(grid.nx), room, "the cubes' cases")?;
                 *out = count_row(grid, bits, &zeros, row, &mut cases);
             }
             Ok(cases)

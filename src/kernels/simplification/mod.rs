@@ -251,13 +251,12 @@ impl Simplifier {
 
     fn enqueue(&mut self, a: u32, b: u32) -> Result<()> {
         // Stale entries stay queued until popped, so the queue outgrows the mesh.
-        self.queue.try_reserve(1).map_err(|_| {
-            Error::out_of_memory(format!(
-                "could not allocate the queue of collapses beyond {} entries; free memory or \
-                 simplify a smaller mesh",
-                self.queue.len()
-            ))
-        })?;
+        let room = self.queue.len() + 1;
+        allocation::reserved::<QueueEntry>(
+            self.queue.try_reserve(1),
+            room,
+            "the collapses' queue",
+        )?;
         let q = self.quadrics[a as usize] + self.quadrics[b as usize];
         let cost = q.placements(self.points[a as usize], self.points[b as usize])[0].0;
         // Non-negative floats order as their bits do.

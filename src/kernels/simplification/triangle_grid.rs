@@ -10,8 +10,9 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
+use crate::allocation;
 use crate::balloon::fast_hash::FastHash;
-use crate::error::{Error, Result};
+use crate::error::Result;
 
 /// The most cells one box enters; larger boxes go to the oversized list.
 const MAX_CELLS_PER_BOX: i64 = 512;
@@ -99,13 +100,11 @@ impl TriangleGrid {
         let cells = self.cell_range(b).map_or(0, |(lo, hi)| {
             (0..3).map(|k| (hi[k] - lo[k] + 1) as usize).product()
         });
-        self.cells.try_reserve(cells).map_err(|_| {
-            Error::out_of_memory(format!(
-                "could not allocate the cells of a grid over {} cells; free memory or simplify \
-                 a smaller mesh",
-                self.cells.len() + cells
-            ))
-        })?;
+        allocation::reserved::<([i32; 3], Vec<u32>)>(
+            self.cells.try_reserve(cells),
+            self.cells.len() + cells,
+            "a grid's cells",
+        )?;
         self.insert(id, b);
         Ok(())
     }
