@@ -1,5 +1,6 @@
-//! The commands that print JSON (`phantom`, `check`) as a user pipes them: a reader that stops
-//! early ends the command quietly.
+//! What the commands print, as a user reads it: the JSON of `phantom` and `check` piped to a
+//! reader that stops early ends the command quietly; `segment` warns when the balloon ran out
+//! of steps.
 #![cfg(feature = "cli")]
 
 use std::process::{Command, Stdio};
@@ -25,4 +26,59 @@ fn a_reader_that_stops_early_ends_the_command_quietly_not_with_a_panic() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(volume.exists());
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_balloon_stopped_by_max_iterations_warns_and_says_so_in_its_stats() {
+    // The 1,000-seed sweep's slowest runs (ircad17's liver) leaked into the soft tissue until
+    // the step budget ran out, and ended with a valid mesh and no word of it.
+    let dir = tempfile::tempdir().unwrap();
+    let volume = dir.path().join("sphere.mha");
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_balloonseg"))
+            .args(args)
+            .output()
+            .expect("the balloonseg binary runs");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        out
+    };
+    let phantom = run(&["phantom", "sphere", "-o", volume.to_str().unwrap()]);
+    let json: serde_json::Value = serde_json::from_slice(&phantom.stdout).unwrap();
+    let seed: Vec<String> = json["seed_world"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap().to_string())
+        .collect();
+    let (mesh, stats) = (dir.path().join("s.vtp"), dir.path().join("s.json"));
+    let segment = |max_iterations: &str| {
+        let out = run(&[
+            "segment",
+            volume.to_str().unwrap(),
+            "--seed",
+            &seed.join(","),
+            "--max-iterations",
+            max_iterations,
+            "-o",
+            mesh.to_str().unwrap(),
+            "--stats",
+            stats.to_str().unwrap(),
+        ]);
+        let stats: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+        (String::from_utf8_lossy(&out.stderr).into_owned(), stats)
+    };
+    let (stderr, stats) = segment("10");
+    assert!(
+        stderr.contains("still growing after max_iterations (10)"),
+        "{stderr}"
+    );
+    assert_eq!(stats["out_of_steps"], true);
+    let (stderr, stats) = segment("4000");
+    assert!(!stderr.contains("warning"), "{stderr}");
+    assert_eq!(stats["out_of_steps"], false);
 }

@@ -116,6 +116,10 @@ pub struct SegmentationStats {
     pub edge_length: f64,
     pub iterations: u32,
     pub reparametrizations: u32,
+    /// Whether an inflation or refinement ran out of `max_iterations` while the balloon was
+    /// still growing: the result is where the balloon stood then, most likely a leak into
+    /// the surroundings (or a structure longer than the steps allow).
+    pub out_of_steps: bool,
     pub seconds: PhaseSeconds,
 }
 
@@ -274,6 +278,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
                 edge_length,
                 iterations: 0,
                 reparametrizations: 0,
+                out_of_steps: false,
                 seconds: PhaseSeconds::default(),
             },
             apart_from: Vec::new(),
@@ -634,6 +639,21 @@ mod tests {
         let (mesh, states) = s.mesh();
         assert_eq!(mesh.points().len(), states.len());
         assert!(mesh_checks::check(&mesh).closed());
+    }
+
+    #[test]
+    fn a_balloon_stopped_by_max_iterations_says_it_ran_out_of_steps() {
+        let (_, stats) = run(Shape::Sphere, &PhantomOptions::default());
+        assert!(!stats.out_of_steps, "{stats:?}");
+        let p = phantom::render(Shape::Sphere, &PhantomOptions::default()).unwrap();
+        let params = BalloonParams {
+            max_iterations: 10,
+            ..BalloonParams::default()
+        };
+        let mut s = Segmenter::new(p.image.view(), params, p.seed_world()).unwrap();
+        let (mesh, _) = s.segment().unwrap();
+        assert!(s.stats().out_of_steps, "{:?}", s.stats());
+        assert!(mesh_checks::check(&mesh).is_valid_closed_surface());
     }
 
     #[test]

@@ -178,7 +178,11 @@ impl Segmenter<'_, '_> {
             }
             run.volume = now;
         }
-        Ok(run.steps >= run.limit)
+        if run.steps >= run.limit {
+            self.stats.out_of_steps = true;
+            return Ok(true);
+        }
+        Ok(false)
     }
 }
 

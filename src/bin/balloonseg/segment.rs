@@ -149,12 +149,8 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
     let progress: Option<ProgressCallback> = std::io::stderr()
         .is_terminal()
         .then(|| Box::new(draw_progress) as ProgressCallback);
-    let result = segment_objects(
-        image.view(),
-        args.params.params(threads)?,
-        &request,
-        progress,
-    );
+    let params = args.params.params(threads)?;
+    let result = segment_objects(image.view(), params.clone(), &request, progress);
     if std::io::stderr().is_terminal() {
         eprintln!();
     }
@@ -166,6 +162,15 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
             String::new()
         };
         eprintln!("{name}{}", window_line(&object.stats));
+        if object.stats.out_of_steps {
+            eprintln!(
+                "warning: {name}the balloon was still growing after max_iterations ({}) steps: \
+                 it has most likely leaked out of the structure (look at it with --png); narrow \
+                 the window (give a smaller tolerance), or raise --max-iterations if the \
+                 structure is really that long",
+                params.max_iterations
+            );
+        }
     }
     write_meshes(&args.output, &objects, per_object)?;
     if let Some(path) = &args.stats {
@@ -312,6 +317,7 @@ fn stats_json(
         "self_intersecting_pairs": self_intersections(mesh)?.len(),
         "iterations": stats.iterations,
         "reparametrizations": stats.reparametrizations,
+        "out_of_steps": stats.out_of_steps,
         "volume_mm3": report.signed_volume,
         "area_mm2": report.area,
         "reference_intensity": stats.reference_intensity,
