@@ -2,6 +2,7 @@
 //! files, call the library and write files. Every error ends the process with a one-line reason and
 //! a non-zero exit code.
 
+mod batch;
 mod check;
 mod demo;
 mod distance;
@@ -36,6 +37,10 @@ struct Cli {
 enum Command {
     /// Segment the structure around the seed(s): the balloon, grown and repaired, as a mesh.
     Segment(segment::Args),
+    /// Segment a cohort: one case per row of a CSV manifest (image, seeds, parameters), each
+    /// as `segment` would, with a results table; failed cases are recorded, finished ones
+    /// skipped on a rerun.
+    Batch(batch::Args),
     /// Marching cubes of a volume at a level, written as a welded mesh in world mm.
     Isosurface(isosurface::Args),
     /// Topology and geometry of a mesh as JSON: closed, manifold, oriented, genus, ...
@@ -73,6 +78,7 @@ fn main() -> ExitCode {
     };
     let result = pool.install(|| match cli.command {
         Command::Segment(args) => segment::run(&args, cli.threads),
+        Command::Batch(args) => batch::run(&args, cli.threads),
         Command::Isosurface(args) => isosurface::run(&args),
         Command::Check(args) => check::run(&args),
         Command::Distance(args) => distance::run(&args),

@@ -138,6 +138,29 @@ impl Args {
 }
 
 pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
+    let progress: Option<ProgressCallback> = std::io::stderr()
+        .is_terminal()
+        .then(|| Box::new(draw_progress) as ProgressCallback);
+    segment(args, threads, progress, Chatter::Stderr)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Whether `segment` tells standard error about the window, its warnings and the files it
+/// writes (a command run alone), or keeps quiet (a case of a batch, whose table says it).
+#[derive(Clone, Copy, PartialEq)]
+pub enum Chatter {
+    Stderr,
+    Quiet,
+}
+
+/// The command's whole work with its `threads` and `progress`: read, segment, write the mesh
+/// and the optional statistics and picture. Returns the objects.
+pub fn segment(
+    args: &Args,
+    threads: usize,
+    progress: Option<ProgressCallback>,
+    chatter: Chatter,
+) -> Result<Vec<SegmentedObject>> {
     let start = Instant::now();
     let per_object = args.output.to_string_lossy().contains(LABEL_PLACEHOLDER);
     let image = io::read_image(&args.input)?;
@@ -146,16 +169,14 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
     if request.objects.len() > 1 && !per_object {
         io::check_holds_cell_data(&args.output, "object")?;
     }
-    let progress: Option<ProgressCallback> = std::io::stderr()
-        .is_terminal()
-        .then(|| Box::new(draw_progress) as ProgressCallback);
+    let drawn = progress.is_some();
     let params = args.params.params(threads)?;
     let result = segment_objects(image.view(), params.clone(), &request, progress);
-    if std::io::stderr().is_terminal() {
+    if drawn {
         eprintln!();
     }
     let objects = result?;
-    for object in &objects {
+    for object in objects.iter().filter(|_| chatter == Chatter::Stderr) {
         let name = if objects.len() > 1 {
             format!("object {}: ", object.label)
         } else {
@@ -172,7 +193,7 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
             );
         }
     }
-    write_meshes(&args.output, &objects, per_object)?;
+    write_meshes(&args.output, &objects, per_object, chatter)?;
     if let Some(path) = &args.stats {
         let total = start.elapsed().as_secs_f64();
         let stats = match &objects[..] {
@@ -214,7 +235,7 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
             &render::render_objects(&image.view(), &shown, &options)?,
         )?;
     }
-    Ok(ExitCode::SUCCESS)
+    Ok(objects)
 }
 
 /// Every object's mesh in one, and the label of each triangle.
@@ -232,7 +253,12 @@ fn merged(objects: &[SegmentedObject]) -> Result<(TriMesh, Vec<i32>)> {
 
 /// One file per object where `path` holds the placeholder, else one file with a `vertex_state`
 /// point array and, for several objects, an `object` triangle array.
-fn write_meshes(path: &Path, objects: &[SegmentedObject], per_object: bool) -> Result<()> {
+fn write_meshes(
+    path: &Path,
+    objects: &[SegmentedObject],
+    per_object: bool,
+    chatter: Chatter,
+) -> Result<()> {
     let write = |path: &Path, mesh: &TriMesh, states: &[VertexState], labels: Option<&[i32]>| {
         let state_bytes: Vec<u8> = states.iter().map(|&s| s as u8).collect();
         let point_data = [PointData {
@@ -251,13 +277,15 @@ fn write_meshes(path: &Path, objects: &[SegmentedObject], per_object: bool) -> R
             )?,
             None => io::write_mesh(path, mesh, &point_data)?,
         }
-        let moving = states.iter().filter(|&&s| s == VertexState::Moving).count();
-        eprintln!(
-            "{}: {} points, {} triangles ({moving} vertices still moving)",
-            crate::shown(path),
-            mesh.points().len(),
-            mesh.triangles().len()
-        );
+        if chatter == Chatter::Stderr {
+            let moving = states.iter().filter(|&&s| s == VertexState::Moving).count();
+            eprintln!(
+                "{}: {} points, {} triangles ({moving} vertices still moving)",
+                crate::shown(path),
+                mesh.points().len(),
+                mesh.triangles().len()
+            );
+        }
         Ok(())
     };
     if per_object {
