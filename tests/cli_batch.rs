@@ -197,6 +197,26 @@ fn a_manifest_that_cannot_run_is_refused_before_any_case_runs() {
         ("id,image,seeds\n../a,sphere.mha,\"1,2,3\"\n", "names files"),
         ("id,image,seeds\n", "no cases"),
     ];
+    let manifest = dir.path().join("good.csv");
+    std::fs::write(
+        &manifest,
+        format!("id,image,seeds\na,sphere.mha,\"{sphere}\"\n"),
+    )
+    .unwrap();
+    let out = balloonseg(&[
+        "batch",
+        manifest.to_str().unwrap(),
+        "-o",
+        dir.path().join("out").to_str().unwrap(),
+        "--format",
+        "xyz",
+    ]);
+    assert!(
+        stderr(&out).contains("--format xyz is not a mesh format"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!dir.path().join("out").exists());
     for (k, (text, expected)) in cases.iter().enumerate() {
         let manifest = dir.path().join(format!("m{k}.csv"));
         std::fs::write(&manifest, text).unwrap();

@@ -19,7 +19,7 @@ use std::time::Instant;
 
 use balloonseg::balloon::params::PARAMETERS;
 use balloonseg::balloon::SegmentedObject;
-use balloonseg::{mesh_checks, Error, Result};
+use balloonseg::{io, mesh_checks, Error, Result};
 use clap::Parser;
 use serde_json::{json, Value};
 
@@ -90,6 +90,17 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
         return Err(Error::invalid_argument(
             "--jobs is 0; give the number of cases to run at a time (1 or more)",
         ));
+    }
+    let format = args.format.trim_start_matches('.').to_ascii_lowercase();
+    if !io::MESH_FORMATS
+        .split(", ")
+        .any(|f| f.trim_start_matches('.') == format)
+    {
+        return Err(Error::invalid_argument(format!(
+            "--format {} is not a mesh format; give one of {}",
+            args.format,
+            io::MESH_FORMATS
+        )));
     }
     let cases = read_manifest(args)?;
     std::fs::create_dir_all(&args.dir).map_err(|e| {
