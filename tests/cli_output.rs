@@ -1,6 +1,6 @@
 //! What the commands print, as a user reads it: the JSON of `phantom` and `check` piped to a
 //! reader that stops early ends the command quietly; `segment` warns when the balloon ran out
-//! of steps.
+//! of steps; `info` shows a volume's geometry.
 #![cfg(feature = "cli")]
 
 use std::process::{Command, Stdio};
@@ -81,4 +81,50 @@ fn a_balloon_stopped_by_max_iterations_warns_and_says_so_in_its_stats() {
     let (stderr, stats) = segment("4000");
     assert!(!stderr.contains("warning"), "{stderr}");
     assert_eq!(stats["out_of_steps"], false);
+}
+
+#[test]
+fn info_prints_the_geometry_the_balloon_will_use() {
+    let dir = tempfile::tempdir().unwrap();
+    let volume = dir.path().join("y.nii.gz");
+    let bin = env!("CARGO_BIN_EXE_balloonseg");
+    let phantom = Command::new(bin)
+        .args([
+            "phantom",
+            "y-vessel",
+            "--oblique",
+            "--spacing",
+            "0.8,1.1,1.4",
+            "-o",
+        ])
+        .arg(&volume)
+        .output()
+        .unwrap();
+    assert!(phantom.status.success());
+    let made: serde_json::Value = serde_json::from_slice(&phantom.stdout).unwrap();
+    let info = Command::new(bin).arg("info").arg(&volume).output().unwrap();
+    assert!(
+        info.status.success(),
+        "{}",
+        String::from_utf8_lossy(&info.stderr)
+    );
+    let read: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(read["dims"], made["dims"]);
+    let spacing: Vec<f64> = read["spacing"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    for (got, want) in spacing.iter().zip([0.8, 1.1, 1.4]) {
+        assert!((got - want).abs() < 1e-6, "{spacing:?}");
+    }
+    assert_ne!(read["direction"][1], 0.0, "oblique: {read}");
+    assert!(read["read_seconds"].as_f64().unwrap() >= 0.0);
+    let missing = Command::new(bin)
+        .args(["info", "nothing.mha"])
+        .output()
+        .unwrap();
+    assert!(!missing.status.success());
+    assert!(String::from_utf8_lossy(&missing.stderr).contains("nothing.mha"));
 }

@@ -7,6 +7,7 @@ mod check;
 mod demo;
 mod distance;
 mod hausdorff;
+mod info;
 mod isosurface;
 mod param_flags;
 mod phantom;
@@ -43,6 +44,9 @@ enum Command {
     Batch(batch::Args),
     /// Marching cubes of a volume at a level, written as a welded mesh in world mm.
     Isosurface(isosurface::Args),
+    /// What a volume file holds, as JSON: dims, spacing, origin, direction, voxel type, and the
+    /// time the read took.
+    Info(info::Args),
     /// Topology and geometry of a mesh as JSON: closed, manifold, oriented, genus, ...
     Check(check::Args),
     /// Signed distance (mm, negative inside) from a closed mesh on the grid of a volume.
@@ -80,6 +84,7 @@ fn main() -> ExitCode {
         Command::Segment(args) => segment::run(&args, cli.threads),
         Command::Batch(args) => batch::run(&args, cli.threads),
         Command::Isosurface(args) => isosurface::run(&args),
+        Command::Info(args) => info::run(&args),
         Command::Check(args) => check::run(&args),
         Command::Distance(args) => distance::run(&args),
         Command::Hausdorff(args) => hausdorff::run(&args),
