@@ -4,32 +4,17 @@
 #![cfg(feature = "cli")]
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
-fn balloonseg(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_balloonseg"))
-        .args(args)
-        .output()
-        .expect("the balloonseg binary runs")
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
+#[allow(dead_code)]
+#[path = "support/cli.rs"]
+mod cli;
+use cli::{balloonseg, stderr};
 
 /// A phantom volume in `dir` and its seed, "x,y,z" in world mm.
 fn phantom(dir: &Path, name: &str) -> (PathBuf, String) {
-    let volume = dir.join(format!("{name}.mha"));
-    let out = balloonseg(&["phantom", name, "-o", volume.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", stderr(&out));
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let seed: Vec<String> = json["seed_world"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap().to_string())
-        .collect();
-    (volume, seed.join(","))
+    let (volume, json) = cli::phantom(dir, &format!("{name}.mha"), name, &[]);
+    (volume, cli::point(&json, "seed_world"))
 }
 
 fn results(dir: &Path) -> Vec<serde_json::Value> {

@@ -3,14 +3,11 @@
 #![cfg(feature = "cli")]
 
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn balloonseg(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_balloonseg"))
-        .args(args)
-        .output()
-        .expect("the balloonseg binary runs")
-}
+#[allow(dead_code)]
+#[path = "support/cli.rs"]
+mod cli;
+use cli::balloonseg;
 
 fn text(path: &Path) -> String {
     String::from_utf8_lossy(&std::fs::read(path).unwrap()).into_owned()
@@ -18,34 +15,11 @@ fn text(path: &Path) -> String {
 
 /// A touching pair and its two seeds ("x,y,z", world mm).
 fn touching_pair(dir: &Path) -> (String, String, String) {
-    let volume = dir.join("pair.nii.gz");
-    let out = balloonseg(&[
-        "phantom",
-        "touching-pair",
-        "--variant",
-        "6",
-        "-o",
-        volume.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let point = |key: &str| {
-        json[key]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|v| v.as_f64().unwrap().to_string())
-            .collect::<Vec<_>>()
-            .join(",")
-    };
+    let (volume, json) = cli::phantom(dir, "pair.nii.gz", "touching-pair", &["--variant", "6"]);
     (
         volume.to_str().unwrap().to_string(),
-        point("seed_world"),
-        point("other_seed_world"),
+        cli::point(&json, "seed_world"),
+        cli::point(&json, "other_seed_world"),
     )
 }
 

@@ -5,6 +5,10 @@
 
 use std::process::{Command, Stdio};
 
+#[allow(dead_code)]
+#[path = "support/cli.rs"]
+mod cli;
+
 #[test]
 fn a_reader_that_stops_early_ends_the_command_quietly_not_with_a_panic() {
     // `balloonseg phantom … | head -c 0`: println! panicked on the broken pipe, with a
@@ -33,34 +37,15 @@ fn a_balloon_stopped_by_max_iterations_warns_and_says_so_in_its_stats() {
     // The 1,000-seed sweep's slowest runs (ircad17's liver) leaked into the soft tissue until
     // the step budget ran out, and ended with a valid mesh and no word of it.
     let dir = tempfile::tempdir().unwrap();
-    let volume = dir.path().join("sphere.mha");
-    let run = |args: &[&str]| {
-        let out = Command::new(env!("CARGO_BIN_EXE_balloonseg"))
-            .args(args)
-            .output()
-            .expect("the balloonseg binary runs");
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        out
-    };
-    let phantom = run(&["phantom", "sphere", "-o", volume.to_str().unwrap()]);
-    let json: serde_json::Value = serde_json::from_slice(&phantom.stdout).unwrap();
-    let seed: Vec<String> = json["seed_world"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap().to_string())
-        .collect();
+    let (volume, json) = cli::phantom(dir.path(), "sphere.mha", "sphere", &[]);
+    let seed = cli::point(&json, "seed_world");
     let (mesh, stats) = (dir.path().join("s.vtp"), dir.path().join("s.json"));
     let segment = |max_iterations: &str| {
-        let out = run(&[
+        let out = cli::succeed(&[
             "segment",
             volume.to_str().unwrap(),
             "--seed",
-            &seed.join(","),
+            &seed,
             "--max-iterations",
             max_iterations,
             "-o",
@@ -70,7 +55,7 @@ fn a_balloon_stopped_by_max_iterations_warns_and_says_so_in_its_stats() {
         ]);
         let stats: serde_json::Value =
             serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
-        (String::from_utf8_lossy(&out.stderr).into_owned(), stats)
+        (cli::stderr(&out), stats)
     };
     let (stderr, stats) = segment("10");
     assert!(
@@ -86,28 +71,13 @@ fn a_balloon_stopped_by_max_iterations_warns_and_says_so_in_its_stats() {
 #[test]
 fn info_prints_the_geometry_the_balloon_will_use() {
     let dir = tempfile::tempdir().unwrap();
-    let volume = dir.path().join("y.nii.gz");
-    let bin = env!("CARGO_BIN_EXE_balloonseg");
-    let phantom = Command::new(bin)
-        .args([
-            "phantom",
-            "y-vessel",
-            "--oblique",
-            "--spacing",
-            "0.8,1.1,1.4",
-            "-o",
-        ])
-        .arg(&volume)
-        .output()
-        .unwrap();
-    assert!(phantom.status.success());
-    let made: serde_json::Value = serde_json::from_slice(&phantom.stdout).unwrap();
-    let info = Command::new(bin).arg("info").arg(&volume).output().unwrap();
-    assert!(
-        info.status.success(),
-        "{}",
-        String::from_utf8_lossy(&info.stderr)
+    let (volume, made) = cli::phantom(
+        dir.path(),
+        "y.nii.gz",
+        "y-vessel",
+        &["--oblique", "--spacing", "0.8,1.1,1.4"],
     );
+    let info = cli::succeed(&["info", volume.to_str().unwrap()]);
     let read: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
     assert_eq!(read["dims"], made["dims"]);
     let spacing: Vec<f64> = read["spacing"]
@@ -121,10 +91,7 @@ fn info_prints_the_geometry_the_balloon_will_use() {
     }
     assert_ne!(read["direction"][1], 0.0, "oblique: {read}");
     assert!(read["read_seconds"].as_f64().unwrap() >= 0.0);
-    let missing = Command::new(bin)
-        .args(["info", "nothing.mha"])
-        .output()
-        .unwrap();
+    let missing = cli::balloonseg(&["info", "nothing.mha"]);
     assert!(!missing.status.success());
-    assert!(String::from_utf8_lossy(&missing.stderr).contains("nothing.mha"));
+    assert!(cli::stderr(&missing).contains("nothing.mha"));
 }

@@ -3,23 +3,11 @@
 #![cfg(feature = "cli")]
 
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn balloonseg(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_balloonseg"))
-        .args(args)
-        .output()
-        .expect("the balloonseg binary runs")
-}
-
-fn succeed(args: &[&str]) {
-    let out = balloonseg(args);
-    assert!(
-        out.status.success(),
-        "balloonseg {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
+#[allow(dead_code)]
+#[path = "support/cli.rs"]
+mod cli;
+use cli::{balloonseg, succeed};
 
 /// Width and height of a PNG file, from its header.
 fn png_size(path: &Path) -> (u32, u32) {
