@@ -91,18 +91,8 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
             "--jobs is 0; give the number of cases to run at a time (1 or more)",
         ));
     }
-    let format = args.format.trim_start_matches('.').to_ascii_lowercase();
-    if !io::MESH_FORMATS
-        .split(", ")
-        .any(|f| f.trim_start_matches('.') == format)
-    {
-        return Err(Error::invalid_argument(format!(
-            "--format {} is not a mesh format; give one of {}",
-            args.format,
-            io::MESH_FORMATS
-        )));
-    }
-    let cases = read_manifest(args)?;
+    let extension = mesh_extension(&args.format)?;
+    let cases = read_manifest(args, &extension)?;
     std::fs::create_dir_all(&args.dir).map_err(|e| {
         Error::io(format!(
             "cannot make the output folder {}: {e}",
@@ -127,19 +117,65 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let total_threads = if threads == 0 { cores } else { threads };
     let jobs = args.jobs.min(to_run.len()).max(1);
-    let threads_per_case = (total_threads / jobs).max(1);
+    run_cases(
+        &cases,
+        &to_run,
+        jobs,
+        (total_threads / jobs).max(1),
+        &mut table,
+    )?;
+    let failed_in_table = table.failed();
+    eprintln!(
+        "{} cases: {} finished, {} failed; results in {} and {}",
+        cases.len(),
+        cases.len() - failed_in_table,
+        failed_in_table,
+        crate::shown(&table.csv_path()),
+        crate::shown(&table.json_path())
+    );
+    Ok(if failed_in_table == 0 {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+/// The meshes' extension for `--format` ("vtp", ".VTP"), or an error listing the formats.
+fn mesh_extension(format: &str) -> Result<String> {
+    let extension = format.trim_start_matches('.').to_ascii_lowercase();
+    if io::MESH_FORMATS
+        .split(", ")
+        .any(|f| f.trim_start_matches('.') == extension)
+    {
+        Ok(extension)
+    } else {
+        Err(Error::invalid_argument(format!(
+            "--format {format} is not a mesh format; give one of {}",
+            io::MESH_FORMATS
+        )))
+    }
+}
+
+/// Runs the cases `to_run`, `jobs` at a time with `threads` each, recording each outcome in
+/// `table` (and on disk) as it comes, under one progress bar.
+fn run_cases(
+    cases: &[Case],
+    to_run: &[usize],
+    jobs: usize,
+    threads: usize,
+    table: &mut ResultsTable,
+) -> Result<()> {
     let next = AtomicUsize::new(0);
     let (sender, receiver) = mpsc::channel::<Outcome>();
     let mut bar = CohortBar::new(to_run.len());
     let mut failed = 0;
-    std::thread::scope(|scope| -> Result<()> {
+    let result = std::thread::scope(|scope| -> Result<()> {
         for _ in 0..jobs {
-            let sender = sender.clone();
-            let (cases, to_run, next) = (&cases, &to_run, &next);
+            let (sender, next) = (sender.clone(), &next);
             scope.spawn(move || {
                 while let Some(&index) = to_run.get(next.fetch_add(1, Ordering::Relaxed)) {
                     let start = Instant::now();
-                    let result = run_case(&cases[index], threads_per_case);
+                    let result = run_case(&cases[index], threads);
                     let outcome = Outcome {
                         index,
                         seconds: start.elapsed().as_secs_f64(),
@@ -180,22 +216,9 @@ pub fn run(args: &Args, threads: usize) -> Result<ExitCode> {
             bar.advance(failed);
         }
         Ok(())
-    })?;
+    });
     bar.clear();
-    let failed_in_table = table.failed();
-    eprintln!(
-        "{} cases: {} finished, {} failed; results in {} and {}",
-        cases.len(),
-        cases.len() - failed_in_table,
-        failed_in_table,
-        crate::shown(&table.csv_path()),
-        crate::shown(&table.json_path())
-    );
-    Ok(if failed_in_table == 0 {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::FAILURE
-    })
+    result
 }
 
 /// Runs one case as `segment` would, quietly, after removing what an earlier run of it left
@@ -239,7 +262,7 @@ fn manifest_error(args: &Args, line: Option<u64>, message: impl std::fmt::Displa
 
 /// Every row of the manifest as a case, each checked as `segment` checks its command line,
 /// with its image there and its id unique.
-fn read_manifest(args: &Args) -> Result<Vec<Case>> {
+fn read_manifest(args: &Args, extension: &str) -> Result<Vec<Case>> {
     let mut reader = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
         .comment(Some(b'#'))
@@ -319,7 +342,7 @@ fn read_manifest(args: &Args) -> Result<Vec<Case>> {
                 crate::shown(&image)
             )));
         }
-        let mesh = args.dir.join(format!("{id}.{}", args.format));
+        let mesh = args.dir.join(format!("{id}.{extension}"));
         let mut command = vec![image.to_string_lossy().into_owned()];
         let mut points = |flag: &str, column: &str| {
             for point in cell(column).into_iter().flat_map(|v| v.split(';')) {
