@@ -3,7 +3,8 @@
 
 For each MESH:BOUND given, `balloonseg simplify` reduces the mesh within BOUND mm (both ways);
 then each peer is asked for the same triangle count: vtkQuadricDecimation, pyvista's
-fast-simplification, and meshoptimizer's simplifier. Every result is measured the same way:
+fast-simplification, meshoptimizer's simplifier and OpenMesh's decimater (C++, ModQuadricT;
+built from cpp_tests/openmesh_decimate.cpp with g++ and libopenmesh-dev). Every result is measured the same way:
 time of the simplification call alone (ours: the time the command reports, without reading and
 writing), `balloonseg hausdorff` both ways (exact point-to-triangle distances from a lattice of
 samples), and `balloonseg check` (self-intersecting pairs, closed, manifold, genus).
@@ -108,10 +109,52 @@ def meshoptimizer(points, faces, count):
     return points[used], remap.reshape(-1, 3), seconds
 
 
+OPENMESH_SRC = ROOT / "cpp_tests/openmesh_decimate.cpp"
+OPENMESH_BIN = ROOT / "target/openmesh_decimate"
+
+
+def write_off(path, points, faces):
+    with open(path, "w") as f:
+        f.write(f"OFF\n{len(points)} {len(faces)} 0\n")
+        np.savetxt(f, points, fmt="%.17g")
+        np.savetxt(f, np.hstack([np.full((len(faces), 1), 3), faces]), fmt="%d")
+
+
+def read_off(path):
+    with open(path) as f:
+        words = f.read().split()
+    assert words[0] == "OFF", path
+    n, m = int(words[1]), int(words[2])
+    numbers = words[4 : 4 + 3 * n]
+    points = np.array(numbers, dtype=np.float64).reshape(n, 3)
+    faces = np.array(words[4 + 3 * n : 4 + 3 * n + 4 * m], dtype=np.int64).reshape(m, 4)
+    assert (faces[:, 0] == 3).all(), "OpenMesh wrote a face that is not a triangle"
+    return points, faces[:, 1:]
+
+
+def openmesh(points, faces, count):
+    """OpenMesh's DecimaterT with ModQuadricT (cpp_tests/openmesh_decimate.cpp, compiled on
+    first use against the system's OpenMesh); the time is the program's own, decimation alone."""
+    if not OPENMESH_BIN.exists() or OPENMESH_BIN.stat().st_mtime < OPENMESH_SRC.stat().st_mtime:
+        subprocess.run(
+            ["g++", "-O2", "-DNDEBUG", "-std=c++17", str(OPENMESH_SRC), "-lOpenMeshTools",
+             "-lOpenMeshCore", "-o", str(OPENMESH_BIN)],
+            check=True,
+        )
+    with tempfile.TemporaryDirectory() as folder:
+        source, result = Path(folder) / "in.off", Path(folder) / "out.off"
+        write_off(source, points, faces)
+        done = subprocess.run([str(OPENMESH_BIN), source, result, str(count)],
+                              capture_output=True, text=True, check=True)
+        p, f = read_off(result)
+    return p, f, float(done.stdout)
+
+
 PEERS = [
     ("vtkQuadricDecimation", vtk_quadric),
     ("fast-simplification", fast_simplification),
     ("meshoptimizer", meshoptimizer),
+    ("OpenMesh DecimaterT", openmesh),
 ]
 
 

@@ -26,3 +26,18 @@ def test_self_intersections_match_cgal(tmp_path):
     out = run_script("compare_self_intersection.py", "--quick", "--repeats", "1",
                      "--work", str(tmp_path))
     assert "cap_20k" in out and "coplanar_grids" in out
+
+
+def test_simplification_peers_run_and_ours_keeps_its_bound(tmp_path):
+    cli = ROOT / "target" / "release" / "balloonseg"
+    volume, mesh = tmp_path / "torus.mha", tmp_path / "torus.vtp"
+    for args in (("phantom", "torus", "-o", volume),
+                 ("isosurface", volume, "--level", "500", "-o", mesh)):
+        subprocess.run([str(cli), *map(str, args)], check=True, capture_output=True)
+    out = run_script("simplify_peers.py", f"{mesh}:0.1")
+    rows = {line.split("|")[1].strip(): line.split("|") for line in out.splitlines()
+            if line.startswith("| ") and line.split("|")[2].strip().endswith(" mm")}
+    assert set(rows) == {"balloonseg", "vtkQuadricDecimation", "fast-simplification",
+                         "meshoptimizer", "OpenMesh DecimaterT"}, out
+    inward, outward = (float(v) for v in rows["balloonseg"][6].split("/"))
+    assert max(inward, outward) <= 0.1, out
