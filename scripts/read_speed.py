@@ -39,7 +39,9 @@ def main() -> None:
         image.SetOrigin(ORIGIN)
         files = []
         for suffix, compress in ((".nii.gz", True), (".mha", True), (".nrrd", True), (".nii", False)):
-            path = Path(folder) / f"cta{suffix}"
+            # A stem of its own: given cta.nii.gz, ITK's NIfTI reader takes cta.nii when both
+            # are there.
+            path = Path(folder) / f"cta-{suffix.strip('.').replace('.', '-')}{suffix}"
             sitk.WriteImage(image, str(path), useCompression=compress)
             files.append(path)
         voxel_mb = np.prod(dims) * 2 / 1e6
