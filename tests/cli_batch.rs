@@ -202,6 +202,31 @@ fn a_manifest_that_cannot_run_is_refused_before_any_case_runs() {
         stderr(&out)
     );
     assert!(!dir.path().join("out").exists());
+    // A legacy .vtk volume beside its case's .vtk mesh: the mesh would replace the image. (The
+    // check comes before any image is read, so the bytes need not be a .vtk volume's.)
+    let vtk = dir.path().join("scan.vtk");
+    std::fs::copy(dir.path().join("sphere.mha"), &vtk).unwrap();
+    let before = std::fs::read(&vtk).unwrap();
+    let manifest = dir.path().join("clash.csv");
+    std::fs::write(
+        &manifest,
+        format!("id,image,seeds\nscan,scan.vtk,\"{sphere}\"\n"),
+    )
+    .unwrap();
+    let out = balloonseg(&[
+        "batch",
+        manifest.to_str().unwrap(),
+        "-o",
+        dir.path().to_str().unwrap(),
+        "--format",
+        "vtk",
+    ]);
+    assert!(
+        stderr(&out).contains("over its own image"),
+        "{}",
+        stderr(&out)
+    );
+    assert_eq!(std::fs::read(&vtk).unwrap(), before);
     for (k, (text, expected)) in cases.iter().enumerate() {
         let manifest = dir.path().join(format!("m{k}.csv"));
         std::fs::write(&manifest, text).unwrap();

@@ -17,6 +17,7 @@ cases on a Dask cluster. Cases, results, meshes and errors all pickle.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import os
 import re
@@ -28,7 +29,7 @@ import numpy as np
 
 from .errors import BalloonError, InvalidArgumentError
 from .mesh import MESH_FORMATS
-from .segmenter import parameter_info, segment_objects
+from .segmenter import _params_struct, parameter_info, segment_objects
 
 #: The manifest's columns other than the parameters, as ``balloonseg batch`` reads them.
 COLUMNS = ("id", "image", "seeds", "stops", "roi", "coordinates")
@@ -178,8 +179,6 @@ def read_manifest(path) -> list[Case]:
                         path, line, f"{flag} '{cells[flag]}' is not a number"
                     ) from None
         try:
-            from .segmenter import _params_struct
-
             _params_struct(params)
         except BalloonError as e:
             raise _manifest_error(path, line, e.message) from None
@@ -214,6 +213,42 @@ def _to_world(point, coordinates, geometry):
     return tuple(np.asarray(geometry["origin"]) + world)
 
 
+def _mesh_suffix(format: str) -> str:
+    suffix = "." + format.lstrip(".").lower()
+    if suffix not in MESH_FORMATS:
+        raise InvalidArgumentError(f"format '{format}' is not one of {', '.join(MESH_FORMATS)}")
+    return suffix
+
+
+def _is_case_mesh(name: str, case_id: str, suffix: str) -> bool:
+    """Whether a file name is one of the case's meshes: ID.EXT, or ID_L.EXT for label L."""
+    if not (name.startswith(case_id) and name.endswith(suffix)):
+        return False
+    label = name[len(case_id) : len(name) - len(suffix)]
+    return label == "" or (label.startswith("_") and label[1:].isdigit())
+
+
+def _image_clash(case: Case, output_dir: Path, suffix: str) -> str | None:
+    """Why the case's meshes would replace its own image (a .vtk volume beside ID.vtk), or None."""
+    image = Path(case.image).resolve()
+    if image.parent == output_dir.resolve() and _is_case_mesh(image.name, case.id, suffix):
+        return (
+            f"case {case.id} (line {case.line}) would write {image} over its own image; give "
+            "another id, format or output folder"
+        )
+    return None
+
+
+def check_outputs(cases, output_dir, format: str = "vtp") -> None:
+    """Raises InvalidArgumentError when a case's meshes would replace its own image, before
+    anything runs (``balloonseg batch`` refuses such a manifest too)."""
+    suffix = _mesh_suffix(format)
+    for case in cases:
+        clash = _image_clash(case, Path(output_dir), suffix)
+        if clash:
+            raise InvalidArgumentError(clash)
+
+
 def run_case(case: Case, output_dir, format: str = "vtp", threads: int = 0) -> CaseResult:
     """Runs one case and writes its meshes to ``output_dir`` (``ID.FORMAT``, or ``ID_L.FORMAT``
     for each label L of a case with several), after removing what an earlier run of the case
@@ -221,15 +256,23 @@ def run_case(case: Case, output_dir, format: str = "vtp", threads: int = 0) -> C
     import SimpleITK as sitk
 
     output_dir = Path(output_dir)
-    suffix = "." + format.lstrip(".").lower()
-    if suffix not in MESH_FORMATS:
-        raise InvalidArgumentError(f"format '{format}' is not one of {', '.join(MESH_FORMATS)}")
-    for old in output_dir.glob(f"{case.id}.*"):
-        old.unlink()
-    for old in output_dir.glob(f"{case.id}_*"):
-        if old.suffix == suffix and old.stem[len(case.id) + 1 :].isdigit():
-            old.unlink()
+    suffix = _mesh_suffix(format)
     start = time.perf_counter()
+    clash = _image_clash(case, output_dir, suffix)
+    if clash:
+        return CaseResult(
+            id=case.id,
+            line=case.line,
+            status="failed",
+            seconds=0.0,
+            error=clash,
+            error_type="InvalidArgumentError",
+        )
+    # Only the case's own meshes: the folder may also hold the images (scan1.mha beside
+    # scan1.vtp).
+    for old in output_dir.glob(f"{case.id}*{suffix}"):
+        if _is_case_mesh(old.name, case.id, suffix):
+            old.unlink()
     try:
         image = sitk.ReadImage(case.image)
         geometry = {
@@ -292,13 +335,8 @@ def write_results(results, output_dir) -> None:
     output_dir = Path(output_dir)
     rows = [{k: v for k, v in asdict(r).items() if k != "meshes"} for r in results]
     _replace(output_dir / "results.json", json.dumps({"cases": rows}, indent=2))
-    lines = []
-
-    class Lines:
-        def write(self, text):
-            lines.append(text)
-
-    writer = csv.writer(Lines(), lineterminator="\n")
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
     writer.writerow(RESULT_COLUMNS)
     for row in rows:
         cells = []
@@ -313,7 +351,7 @@ def write_results(results, output_dir) -> None:
             else:
                 cells.append(str(value))
         writer.writerow(cells)
-    _replace(output_dir / "results.csv", "".join(lines))
+    _replace(output_dir / "results.csv", text.getvalue())
 
 
 def _replace(path: Path, text: str) -> None:
@@ -327,6 +365,7 @@ def run_manifest(manifest, output_dir, *, format: str = "vtp", map=map, threads:
     another; any map-like callable, e.g. a process pool's) and writes the results table.
     Returns the :class:`CaseResult` of each case in the manifest's order."""
     cases = read_manifest(manifest)
+    check_outputs(cases, output_dir, format)
     output_dir = Path(output_dir)
     output_dir.mkdir(parents=True, exist_ok=True)
     results = list(

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .cohort import CaseResult, read_manifest, run_case, write_results
+from .cohort import CaseResult, check_outputs, read_manifest, run_case, write_results
 
 
 def run_manifest(
@@ -28,8 +28,9 @@ def run_manifest(
     ``threads_per_case`` library threads each (the default 1 leaves the parallelism to Dask's
     workers), and writes ``results.csv`` and ``results.json`` to ``output_dir``. Returns the
     :class:`~balloonseg.cohort.CaseResult` of each case in the manifest's order. The manifest is
-    checked before any task is submitted."""
+    checked before any task is submitted, and so is that no case's mesh would replace its image."""
     cases = read_manifest(manifest)
+    check_outputs(cases, output_dir, format)
     output_dir = Path(output_dir)
     output_dir.mkdir(parents=True, exist_ok=True)
     futures = client.map(

@@ -134,3 +134,33 @@ def test_a_manifest_the_command_line_refuses_is_refused(cli, phantom, tmp_path, 
         cohort.read_manifest(path)
     done = batch(cli, path, tmp_path / "out")
     assert done.returncode != 0 and expected.split(":")[0] in done.stderr, done.stderr
+
+
+def test_a_case_written_beside_its_image_removes_only_its_own_old_meshes(phantom, tmp_path):
+    sphere, seed = phantom("sphere")
+    image = tmp_path / "scan.mha"
+    image.write_bytes(sphere.read_bytes())
+    (tmp_path / "scan_2.vtp").write_text("an old second object")
+    (tmp_path / "scan_notes.vtp").write_text("not the case's")
+    manifest = tmp_path / "m.csv"
+    manifest.write_text(f'id,image,seeds\nscan,scan.mha,"{",".join(map(repr, seed))}"\n')
+    (result,) = cohort.run_manifest(manifest, tmp_path)
+    assert result.status == "ok", result
+    assert image.read_bytes() == sphere.read_bytes()
+    assert not (tmp_path / "scan_2.vtp").exists()
+    assert (tmp_path / "scan_notes.vtp").exists()
+    assert (tmp_path / "scan.vtp").exists()
+
+
+def test_a_mesh_that_would_replace_its_own_image_is_refused(phantom, tmp_path):
+    sphere, seed = phantom("sphere")
+    image = tmp_path / "scan.vtk"  # a legacy VTK volume, and a mesh format
+    image.write_bytes(sphere.read_bytes())
+    manifest = tmp_path / "m.csv"
+    manifest.write_text(f'id,image,seeds\nscan,scan.vtk,"{",".join(map(repr, seed))}"\n')
+    with pytest.raises(balloonseg.InvalidArgumentError, match="over its own image"):
+        cohort.run_manifest(manifest, tmp_path, format="vtk")
+    (case,) = cohort.read_manifest(manifest)
+    result = cohort.run_case(case, tmp_path, format="vtk")
+    assert result.status == "failed" and "over its own image" in result.error
+    assert image.read_bytes() == sphere.read_bytes()

@@ -379,6 +379,14 @@ fn read_manifest(args: &Args, extension: &str) -> Result<Vec<Case>> {
             command.extend(["--png".to_string(), png.to_string_lossy().into_owned()]);
             outputs.push(png);
         }
+        let same_file = |a: &Path, b: &Path| matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y);
+        if let Some(clash) = outputs.iter().find(|o| same_file(o, &image)) {
+            return Err(row_error(format!(
+                "the case would write {} over its own image; give another id, format or \
+                 output folder",
+                crate::shown(clash)
+            )));
+        }
         let parsed = SegmentLine::try_parse_from(&command).map_err(|e| {
             let text = e.to_string();
             let first = text.lines().next().unwrap_or_default();
