@@ -171,26 +171,28 @@ pub fn segment(
     }
     let drawn = progress.is_some();
     let params = args.params.params(threads)?;
-    let result = segment_objects(image.view(), params.clone(), &request, progress);
+    let max_iterations = params.max_iterations;
+    let result = segment_objects(image.view(), params, &request, progress);
     if drawn {
         eprintln!();
     }
     let objects = result?;
-    for object in objects.iter().filter(|_| chatter == Chatter::Stderr) {
-        let name = if objects.len() > 1 {
-            format!("object {}: ", object.label)
-        } else {
-            String::new()
-        };
-        eprintln!("{name}{}", window_line(&object.stats));
-        if object.stats.out_of_steps {
-            eprintln!(
-                "warning: {name}the balloon was still growing after max_iterations ({}) steps: \
-                 it has most likely leaked out of the structure (look at it with --png); narrow \
-                 the window (give a smaller tolerance), or raise --max-iterations if the \
-                 structure is really that long",
-                params.max_iterations
-            );
+    if chatter == Chatter::Stderr {
+        for object in &objects {
+            let name = if objects.len() > 1 {
+                format!("object {}: ", object.label)
+            } else {
+                String::new()
+            };
+            eprintln!("{name}{}", window_line(&object.stats));
+            if object.stats.out_of_steps {
+                eprintln!(
+                    "warning: {name}the balloon was still growing after max_iterations \
+                     ({max_iterations}) steps: it has most likely leaked out of the structure \
+                     (look at it with --png); narrow the window (give a smaller tolerance), or \
+                     raise --max-iterations if the structure is really that long"
+                );
+            }
         }
     }
     write_meshes(&args.output, &objects, per_object, chatter)?;
