@@ -17,7 +17,7 @@ use crate::error::{Error, Result};
 mod families;
 mod grid;
 mod imaging;
-mod random;
+pub(crate) mod random;
 mod scene;
 mod sdf;
 mod shapes;

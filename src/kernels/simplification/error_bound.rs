@@ -36,7 +36,6 @@ use crate::allocation;
 use crate::closest_point::Triangle;
 use crate::error::Result;
 use crate::mesh::TriMesh;
-use crate::mesh_checks::component_volumes;
 
 /// How many times a part is cut again before a proof is given up. A cut along a boundary
 /// between targets settles one boundary, so a part over many targets needs several.
@@ -79,7 +78,8 @@ pub(super) struct InputSurface {
 }
 
 impl InputSurface {
-    pub(super) fn new(mesh: &TriMesh, cell: f64) -> Result<InputSurface> {
+    /// `components` labels each triangle of `mesh` with its connected component.
+    pub(super) fn new(mesh: &TriMesh, components: Vec<u32>, cell: f64) -> Result<InputSurface> {
         let count = mesh.triangles().len();
         let mut grid = TriangleGrid::new(cell);
         let mut triangles = allocation::with_capacity(count, "the input's triangles")?;
@@ -94,7 +94,7 @@ impl InputSurface {
         Ok(InputSurface {
             triangles,
             bounds,
-            components: component_volumes(mesh).0,
+            components,
             grid,
         })
     }
@@ -503,7 +503,7 @@ mod tests {
 
     #[test]
     fn a_triangle_over_two_input_triangles_is_covered_when_close_and_not_when_far() {
-        let input = InputSurface::new(&square_mesh(0.0), 0.5).unwrap();
+        let input = InputSurface::new(&square_mesh(0.0), vec![0, 0], 0.5).unwrap();
         let mut scratch = Vec::new();
         let over = |z: f64| {
             [

@@ -15,7 +15,12 @@
 //!    opposite vertices), and no opposite vertex left with two triangles, so a collapse never
 //!    changes the genus, splits a component or collapses a tetrahedron;
 //! 2. shape: no triangle around the edge turns over (its normal keeps a positive dot product
-//!    with the old one), and none has an angle below the floor;
+//!    with the old one), none has an angle below the floor, and the component's signed volume
+//!    keeps its sign. The last is not implied by the first: on a coarse component (a few dozen
+//!    triangles, as a small balloon under a large bound becomes) a vertex can jump through the
+//!    opposite side, keeping every normal within 90° of the old one, and leave a tetrahedron
+//!    that is closed and free of self-intersections but inside out. Since the result stays free
+//!    of self-intersections, the volume's sign is the component's orientation;
 //! 3. self-intersection: the moved triangles against each other and against every triangle
 //!    whose box meets theirs (`triangle_grid`), by the exact test of `self_intersection`;
 //! 4. distance: both sides of the Hausdorff bound, proved for every point and not only for
@@ -38,7 +43,7 @@ use self::triangle_grid::{Bounds, TriangleGrid};
 use crate::allocation;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
-use crate::mesh_checks::check;
+use crate::mesh_checks::{check, component_volumes};
 use crate::self_intersection::{mesh_triangles_intersect, self_intersections};
 
 /// The smallest angle of any triangle the simplification makes, in degrees. Triangles of the
@@ -143,6 +148,8 @@ struct Simplifier {
     merged_into: Vec<u32>,
     /// The input pieces each live triangle answers for (`error_bound`).
     pieces: Attachments,
+    /// Each component's signed volume, kept up to date by the collapses.
+    volumes: Vec<f64>,
     bounds: Vec<Bounds>,
     grid: TriangleGrid,
     input: InputSurface,
@@ -159,6 +166,13 @@ struct Star {
     remove: u32,
     deleted: [u32; 2],
     moved: Vec<u32>,
+}
+
+/// A collapse that passed every check: the input pieces each moved triangle will answer for,
+/// and its component's signed volume after it.
+struct Admitted {
+    pieces: Vec<Vec<Attached>>,
+    volume: f64,
 }
 
 impl Simplifier {
@@ -181,6 +195,7 @@ impl Simplifier {
         // Cells about the triangles' size at the start; they grow as the mesh coarsens, which
         // the grid's oversized list absorbs.
         let cell = (2.0 * mean_edge).max(max_error);
+        let (components, volumes) = component_volumes(mesh);
         let mut grid = TriangleGrid::new(cell);
         let bounds = allocation::collect(
             (0..triangles.len()).map(|t| Bounds::of(mesh.corners(t))),
@@ -194,7 +209,8 @@ impl Simplifier {
             alive: allocation::filled(triangles.len(), true, "the triangles' flags")?,
             stamps: allocation::filled(points.len(), 0, "the vertices' stamps")?,
             merged_into: allocation::collect(0..points.len() as u32, "the vertex map")?,
-            input: InputSurface::new(mesh, mean_edge.max(max_error))?,
+            input: InputSurface::new(mesh, components, mean_edge.max(max_error))?,
+            volumes,
             limit: tested_limit(max_error),
             cos_min_angle: MIN_ANGLE_DEGREES.to_radians().cos(),
             queue: BinaryHeap::from(allocation::with_capacity(
@@ -335,8 +351,8 @@ impl Simplifier {
         let offset = normal * (0.5 * self.limit);
         tried.extend([(0.0, best + offset), (0.0, best - offset)]);
         for (_, position) in tried {
-            if let Some(pieces) = self.admissible(&star, position) {
-                return self.commit(&star, position, pieces);
+            if let Some(admitted) = self.admissible(&star, position) {
+                return self.commit(&star, position, admitted);
             }
         }
         Ok(())
@@ -356,9 +372,8 @@ impl Simplifier {
         (corners, vertices)
     }
 
-    /// Checks 2–4 for the collapse of `star` to `position`; on success, the input pieces each
-    /// moved triangle will answer for.
-    fn admissible(&mut self, star: &Star, position: DVec3) -> Option<Vec<Vec<Attached>>> {
+    /// Checks 2–4 for the collapse of `star` to `position`.
+    fn admissible(&mut self, star: &Star, position: DVec3) -> Option<Admitted> {
         let after: Vec<([DVec3; 3], [u32; 3])> = star
             .moved
             .iter()
@@ -371,6 +386,12 @@ impl Simplifier {
             if before.dot((q - p).cross(r - p)) <= 0.0 || !self.well_shaped(*corners) {
                 return None;
             }
+        }
+        let component = self.input.component(star.moved[0]);
+        let old_volume = self.volumes[component as usize];
+        let volume = old_volume + self.volume_change(star, &after);
+        if volume * old_volume <= 0.0 {
+            return None;
         }
         // The distance bound before the self-intersection search: most tried collapses fail
         // the bound, and hardly any of those that pass it intersect.
@@ -385,13 +406,31 @@ impl Simplifier {
             return None;
         }
         let mut scratch = std::mem::take(&mut self.scratch);
-        let component = self.input.component(star.moved[0]);
         let covered = after.iter().all(|&(corners, _)| {
             self.input
                 .covers(corners, component, self.limit, &mut scratch)
         });
         self.scratch = scratch;
-        covered.then_some(placed)
+        covered.then_some(Admitted {
+            pieces: placed,
+            volume,
+        })
+    }
+
+    /// How much the collapse changes its component's signed volume: the old star and the new
+    /// one close over the same boundary, so the change is their difference, measured from
+    /// any point (the kept vertex, for precision).
+    fn volume_change(&self, star: &Star, after: &[([DVec3; 3], [u32; 3])]) -> f64 {
+        let origin = self.points[star.keep as usize];
+        let volume = |[a, b, c]: [DVec3; 3]| (a - origin).dot((b - origin).cross(c - origin)) / 6.0;
+        let new: f64 = after.iter().map(|&(corners, _)| volume(corners)).sum();
+        let old: f64 = star
+            .moved
+            .iter()
+            .chain(&star.deleted)
+            .map(|&t| volume(self.corners(t)))
+            .sum();
+        new - old
     }
 
     /// No angle below the floor (which also rules out degenerate triangles).
@@ -438,8 +477,10 @@ impl Simplifier {
         found
     }
 
-    fn commit(&mut self, star: &Star, position: DVec3, pieces: Vec<Vec<Attached>>) -> Result<()> {
+    fn commit(&mut self, star: &Star, position: DVec3, admitted: Admitted) -> Result<()> {
         let (keep, remove) = (star.keep, star.remove);
+        let component = self.input.component(star.moved[0]);
+        self.volumes[component as usize] = admitted.volume;
         for &t in &star.deleted {
             self.alive[t as usize] = false;
             self.grid.remove(t, &self.bounds[t as usize]);
@@ -455,7 +496,8 @@ impl Simplifier {
         self.quadrics[keep as usize] =
             self.quadrics[keep as usize] + self.quadrics[remove as usize];
         self.merged_into[remove as usize] = keep;
-        self.pieces.commit(&star.deleted, &star.moved, pieces);
+        self.pieces
+            .commit(&star.deleted, &star.moved, admitted.pieces);
         for &t in &star.moved {
             self.grid.remove(t, &self.bounds[t as usize]);
             for v in &mut self.triangles[t as usize] {
@@ -532,7 +574,10 @@ mod tests {
     use super::*;
     use crate::error::ErrorKind;
     use crate::evaluation::hausdorff_distance;
+    use crate::marching_cubes::marching_cubes;
     use crate::mesh::test_shapes::{icosphere, torus};
+    use crate::phantom::random::SplitMix64;
+    use crate::{Geometry, Image};
 
     fn smallest_angle_degrees([p, q, r]: [DVec3; 3]) -> f64 {
         [(p, q, r), (q, r, p), (r, p, q)]
@@ -643,6 +688,67 @@ mod tests {
         let out = simplify(&inward, 0.1).unwrap();
         assert_guarantees(&inward, &out, 0.1);
         assert!(out.mesh.signed_volume() < 0.0);
+    }
+
+    /// Five voxels (a 2×2 square and one more on a corner of it) as marching cubes makes them.
+    fn five_voxels(spacing: f64) -> TriMesh {
+        let filled = [[1, 1, 1], [2, 1, 1], [1, 2, 1], [2, 2, 1], [2, 1, 2]];
+        let geometry = Geometry::with_spacing([spacing; 3], [0.0; 3]).unwrap();
+        let image = Image::from_fn([4, 4, 4], geometry, |i, j, k| {
+            f32::from(u8::from(filled.contains(&[i, j, k])))
+        })
+        .unwrap();
+        marching_cubes(&image.view(), 0.5).unwrap()
+    }
+
+    #[test]
+    fn regression_a_small_component_was_turned_inside_out_under_a_large_bound() {
+        // The c_abi fuzzer's balloon_segment with simplify_error_mm 196 returned an inside-out
+        // tetrahedron: each collapse kept every normal within 90° of its old one, yet the last
+        // ones moved a vertex through the opposite side. 36 triangles of five voxels did it too.
+        for mesh in [five_voxels(1.0), five_voxels(1.86).flipped()] {
+            let sign = mesh.signed_volume().signum();
+            for max_error in [0.5, 2.0, 196.0] {
+                let out = simplify(&mesh, max_error).unwrap();
+                assert_guarantees(&mesh, &out, max_error);
+                assert_eq!(out.mesh.signed_volume().signum(), sign, "at {max_error} mm");
+            }
+        }
+    }
+
+    #[test]
+    fn random_voxel_clusters_keep_every_guarantee_under_any_bound() {
+        // The family the regression above came from: small clusters, often several components
+        // and some with handles, inward as marching cubes makes them or flipped outward.
+        let mut rng = SplitMix64::new(19);
+        for variant in 0..150 {
+            let density = rng.uniform(0.3, 0.8);
+            let filled: Vec<bool> = (0..5 * 3 * 5).map(|_| rng.unit() < density).collect();
+            let geometry = Geometry::with_spacing(
+                [
+                    rng.uniform(0.5, 2.0),
+                    rng.uniform(0.5, 2.0),
+                    rng.uniform(0.5, 2.0),
+                ],
+                [0.0; 3],
+            )
+            .unwrap();
+            let image = Image::from_fn([7, 5, 7], geometry, |i, j, k| {
+                let inside = (1..6).contains(&i) && (1..4).contains(&j) && (1..6).contains(&k);
+                let filled = inside && filled[(i - 1) + 5 * ((j - 1) + 3 * (k - 1))];
+                f32::from(u8::from(filled))
+            })
+            .unwrap();
+            let mesh = marching_cubes(&image.view(), 0.5).unwrap();
+            let mesh = if variant % 2 == 0 {
+                mesh
+            } else {
+                mesh.flipped()
+            };
+            let max_error = [0.3, 3.0, 196.0][variant % 3];
+            let out = simplify(&mesh, max_error).unwrap();
+            assert_guarantees(&mesh, &out, max_error);
+        }
     }
 
     #[test]
