@@ -1,5 +1,6 @@
 //! File formats for volumes and meshes, chosen by file extension (feature `io`): MetaImage,
-//! NRRD, NIfTI-1, legacy VTK and VTK XML images; VTK, VTP, PLY, STL, OBJ and OFF meshes.
+//! NRRD, NIfTI-1, legacy VTK and VTK XML images, and a folder holding a DICOM series; VTK, VTP,
+//! PLY, STL, OBJ and OFF meshes.
 //!
 //! Every reader loads the whole file, checks each count it reads against the bytes that remain
 //! before allocating for it, and reports corrupt or truncated input as an error of kind
@@ -19,6 +20,7 @@ mod text_header;
 mod vtk_xml_data;
 mod xml;
 
+pub mod dicom;
 pub mod metaimage;
 pub mod nifti;
 pub mod nrrd;
@@ -35,7 +37,8 @@ use crate::{Error, Image, Result, TriMesh};
 pub use point_data::{CellData, PointData, PointValues};
 
 /// The volume extensions [`read_image`] understands.
-pub const IMAGE_READ_FORMATS: &str = ".mha, .mhd, .nrrd, .nhdr, .nii, .nii.gz, .vti, .vtk";
+pub const IMAGE_READ_FORMATS: &str =
+    ".mha, .mhd, .nrrd, .nhdr, .nii, .nii.gz, .vti, .vtk, or a folder holding a DICOM series";
 /// The volume extensions [`write_image`] understands.
 pub const IMAGE_WRITE_FORMATS: &str = ".mha, .nrrd, .nii.gz";
 /// The mesh extensions [`read_mesh`] and [`write_mesh`] understand.
@@ -62,8 +65,25 @@ fn unsupported(path: &Path, what: &str, formats: &str) -> Error {
     ))
 }
 
-/// Reads a volume; the format follows the extension.
+/// Reads a volume: a folder is a DICOM series (the one it holds), a file's format follows the
+/// extension.
 pub fn read_image(path: &Path) -> Result<Image> {
+    read_image_series(path, None)
+}
+
+/// [`read_image`], with the DICOM series chosen by its SeriesInstanceUID when `series` is given
+/// (for a folder holding several); a chosen series for a file is an error.
+pub fn read_image_series(path: &Path, series: Option<&str>) -> Result<Image> {
+    if path.is_dir() {
+        return dicom::read(path, series);
+    }
+    if let Some(uid) = series {
+        return Err(Error::invalid_argument(format!(
+            "{}: a DICOM series ({uid}) can only be chosen in a folder of DICOM files, and this \
+             is a file; drop the series choice or give the folder",
+            path.display()
+        )));
+    }
     match extension(path).as_str() {
         "mha" | "mhd" => metaimage::read(path),
         "nrrd" | "nhdr" => nrrd::read(path),

@@ -29,9 +29,10 @@ use crate::segment::{self, Chatter};
 pub struct Args {
     /// The cohort, a CSV file with a header row and one case per row. Columns: `id` (the case's
     /// name: letters, digits, '.', '_' and '-'; its files are DIR/ID.*), `image` (a volume, or a
-    /// path relative to the manifest's folder), `seeds` (one or more of segment's --seed
+    /// path relative to the manifest's folder; a folder holds a DICOM series), `seeds` (one or more of segment's --seed
     /// values, "x,y,z" or "L:x,y,z", separated by ';'; quote the cell), and optionally `stops`
-    /// (';'-separated), `roi` ("x0,y0,z0,x1,y1,z1"), `coordinates` (world, index or ras; default
+    /// (';'-separated), `roi` ("x0,y0,z0,x1,y1,z1"), `series` (the DICOM series' UID in a
+    /// folder holding several), `coordinates` (world, index or ras; default
     /// world) and any of segment's parameter flags without the dashes (`tolerance`,
     /// `edge-length`, `simplify`, ...; an empty cell keeps the default).
     manifest: PathBuf,
@@ -62,7 +63,15 @@ struct SegmentLine {
 }
 
 /// The manifest's columns other than the parameters.
-const COLUMNS: [&str; 6] = ["id", "image", "seeds", "stops", "roi", "coordinates"];
+const COLUMNS: [&str; 7] = [
+    "id",
+    "image",
+    "seeds",
+    "stops",
+    "roi",
+    "series",
+    "coordinates",
+];
 
 /// One row of the manifest, checked.
 struct Case {
@@ -351,8 +360,10 @@ fn read_manifest(args: &Args, extension: &str) -> Result<Vec<Case>> {
         };
         points("seed", "seeds");
         points("stop", "stops");
-        if let Some(roi) = cell("roi") {
-            command.extend(["--roi".to_string(), roi.to_string()]);
+        for column in ["roi", "series"] {
+            if let Some(value) = cell(column) {
+                command.extend([format!("--{column}"), value.to_string()]);
+            }
         }
         match cell("coordinates") {
             None | Some("world") => {}

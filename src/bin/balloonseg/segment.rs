@@ -23,8 +23,12 @@ use crate::param_flags::ParamFlags;
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// Input volume (.mha, .mhd, .nrrd, .nhdr, .nii, .nii.gz, .vti, .vtk).
+    /// Input volume (.mha, .mhd, .nrrd, .nhdr, .nii, .nii.gz, .vti, .vtk), or a folder holding
+    /// a DICOM series.
     input: PathBuf,
+    /// The DICOM series to read (its SeriesInstanceUID) when the input folder holds several.
+    #[arg(long)]
+    series: Option<String>,
     /// A seed inside a structure, "x,y,z" in world mm (LPS), for object 1; "L:x,y,z" for
     /// object L (a positive integer). Repeat for more seeds: seeds of one label grow as one
     /// object, objects of different labels stop at each other.
@@ -163,7 +167,7 @@ pub fn segment(
 ) -> Result<Vec<SegmentedObject>> {
     let start = Instant::now();
     let per_object = args.output.to_string_lossy().contains(LABEL_PLACEHOLDER);
-    let image = io::read_image(&args.input)?;
+    let image = io::read_image_series(&args.input, args.series.as_deref())?;
     let geometry = *image.geometry();
     let request = args.request(&geometry)?;
     if request.objects.len() > 1 && !per_object {

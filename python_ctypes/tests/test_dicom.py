@@ -1,0 +1,299 @@
+"""DICOM series: the CLI's reader (src/io/dicom.rs) against SimpleITK's ImageSeriesReader on
+series these tests write with pydicom — axial, sagittal and oblique, 8-, 12- and 16-bit, signed
+and unsigned, with and without a rescale — and the errors a broken series gives.
+
+The CLI is $BALLOONSEG_CLI when set (a build in another target folder), else the one conftest
+finds. Its geometry comes from `balloonseg info DIR`, its voxels from `info DIR --write F.nrrd`.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import CLI, missing
+
+pydicom = pytest.importorskip("pydicom")
+sitk = pytest.importorskip("SimpleITK")
+
+from pydicom.dataset import FileDataset, FileMetaDataset  # noqa: E402
+from pydicom.uid import CTImageStorage, ExplicitVRLittleEndian, generate_uid  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def cli() -> Path:
+    path = Path(os.environ.get("BALLOONSEG_CLI", CLI))
+    if not path.exists():
+        missing(f"{path} is not built; run `cargo build --release --features cli`")
+    return path
+
+
+def ds(x: float) -> str:
+    """A decimal string DICOM accepts (at most 16 characters), read alike by both readers."""
+    return f"{x:.10g}"
+
+
+def rotation(a: float, b: float, c: float) -> np.ndarray:
+    """A rotation matrix from three angles (radians) about z, y and x."""
+    ca, sa, cb, sb, cc, sc = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(c), np.sin(c)
+    rz = np.array([[ca, -sa, 0], [sa, ca, 0], [0, 0, 1]])
+    ry = np.array([[cb, 0, sb], [0, 1, 0], [-sb, 0, cb]])
+    rx = np.array([[1, 0, 0], [0, cc, -sc], [0, sc, cc]])
+    return rz @ ry @ rx
+
+
+AXIAL = (np.array([1.0, 0, 0]), np.array([0, 1.0, 0]))
+SAGITTAL = (np.array([0, 1.0, 0]), np.array([0, 0, -1.0]))
+OBLIQUE = tuple(rotation(0.3, -0.2, 0.45).T[:2])
+
+
+def stored_values(rng, shape, bits_stored: int, signed: bool) -> np.ndarray:
+    low, high = (-(2 ** (bits_stored - 1)), 2 ** (bits_stored - 1)) if signed else (0, 2**bits_stored)
+    return rng.integers(low, high, size=shape)
+
+
+def write_series(
+    folder: Path,
+    stored: np.ndarray,
+    *,
+    spacing=(0.7, 0.8, 1.25),
+    origin=(-120.5, 30.25, 17.0),
+    orientation=AXIAL,
+    bits_allocated: int = 16,
+    bits_stored: int = 16,
+    signed: bool = True,
+    rescale: tuple[str, str] | None = None,
+    uid: str | None = None,
+    description: str = "test series",
+    positions=None,
+    seed: int = 0,
+) -> list[Path]:
+    """Writes `stored` (k, j, i) as one file per slice, in a shuffled file-name order so that
+    only the positions can sort them. Returns the paths, slice order."""
+    folder.mkdir(parents=True, exist_ok=True)
+    uid = uid or generate_uid()
+    row, column = (np.asarray(v, float) for v in orientation)
+    normal = np.cross(row, column)
+    sx, sy, sz = spacing
+    nz, ny, nx = stored.shape
+    names = np.random.default_rng(seed).permutation(nz)
+    dtype = {(8, False): np.uint8, (8, True): np.int8, (16, False): np.uint16, (16, True): np.int16}
+    paths = []
+    for k in range(nz):
+        position = (
+            np.asarray(origin) + k * sz * normal if positions is None else np.asarray(positions[k])
+        )
+        meta = FileMetaDataset()
+        meta.MediaStorageSOPClassUID = CTImageStorage
+        meta.MediaStorageSOPInstanceUID = generate_uid()
+        meta.TransferSyntaxUID = ExplicitVRLittleEndian
+        path = folder / f"{uid[-6:]}_{names[k]:04d}.dcm"
+        d = FileDataset(str(path), {}, file_meta=meta, preamble=b"\0" * 128)
+        d.SOPClassUID = CTImageStorage
+        d.SOPInstanceUID = meta.MediaStorageSOPInstanceUID
+        d.StudyInstanceUID = "1.2.826.0.1.3680043.8.498.1"
+        d.SeriesInstanceUID = uid
+        d.SeriesDescription = description
+        d.FrameOfReferenceUID = "1.2.826.0.1.3680043.8.498.2"
+        d.Modality = "CT"
+        d.PatientName = "Phantom^Dicom"
+        d.PatientID = "0"
+        d.InstanceNumber = k + 1
+        d.ImagePositionPatient = [ds(v) for v in position]
+        d.ImageOrientationPatient = [ds(v) for v in (*row, *column)]
+        d.PixelSpacing = [ds(sy), ds(sx)]
+        d.SliceThickness = ds(sz)
+        d.Rows, d.Columns = ny, nx
+        d.SamplesPerPixel = 1
+        d.PhotometricInterpretation = "MONOCHROME2"
+        d.BitsAllocated = bits_allocated
+        d.BitsStored = bits_stored
+        d.HighBit = bits_stored - 1
+        d.PixelRepresentation = int(signed)
+        if rescale is not None:
+            d.RescaleIntercept, d.RescaleSlope = rescale
+            d.RescaleType = "HU"
+        d.PixelData = stored[k].astype(dtype[bits_allocated, signed]).tobytes()
+        d.save_as(path, enforce_file_format=True)
+        paths.append(path)
+    return paths
+
+
+def sitk_series(folder: Path, uid: str | None = None):
+    reader = sitk.ImageSeriesReader()
+    args = (str(folder),) if uid is None else (str(folder), uid)
+    reader.SetFileNames(sitk.ImageSeriesReader.GetGDCMSeriesFileNames(*args))
+    return reader.Execute()
+
+
+def run(cli: Path, *args) -> subprocess.CompletedProcess:
+    return subprocess.run([str(cli), *map(str, args)], capture_output=True, text=True)
+
+
+def cli_read(cli: Path, folder: Path, tmp_path: Path, *options):
+    """The CLI's info JSON and its voxels (through `info --write`)."""
+    written = tmp_path / f"{folder.name}_read.nrrd"
+    done = run(cli, "info", folder, "--write", written, *options)
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout), sitk.ReadImage(str(written))
+
+
+def assert_same_as_sitk(info, voxels, expected):
+    assert info["dims"] == list(expected.GetSize())
+    for key, value in [
+        ("spacing", expected.GetSpacing()),
+        ("origin", expected.GetOrigin()),
+        ("direction", expected.GetDirection()),
+    ]:
+        np.testing.assert_allclose(info[key], value, rtol=0, atol=1e-6, err_msg=key)
+    np.testing.assert_array_equal(
+        sitk.GetArrayFromImage(voxels).astype(np.float64),
+        sitk.GetArrayFromImage(expected).astype(np.float64),
+    )
+
+
+CASES = {
+    # name: orientation, bits allocated, bits stored, signed, rescale (intercept, slope)
+    "axial-int16-hu": (AXIAL, 16, 16, True, ("-1024", "1")),
+    "axial-uint12-hu": (AXIAL, 16, 12, False, ("-1024", "1")),
+    "sagittal-uint16": (SAGITTAL, 16, 16, False, None),
+    "oblique-int12-fractional": (OBLIQUE, 16, 12, True, ("-1024.25", "0.5")),
+    "oblique-uint8": (OBLIQUE, 8, 8, False, None),
+    "sagittal-int8-slope": (SAGITTAL, 8, 8, True, ("10", "3")),
+}
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_geometry_and_voxels_equal_simpleitk(cli, tmp_path, name):
+    orientation, bits_allocated, bits_stored, signed, rescale = CASES[name]
+    rng = np.random.default_rng(zlib.crc32(name.encode()))
+    stored = stored_values(rng, (7, 9, 11), bits_stored, signed)
+    folder = tmp_path / name
+    write_series(
+        folder,
+        stored,
+        orientation=orientation,
+        bits_allocated=bits_allocated,
+        bits_stored=bits_stored,
+        signed=signed,
+        rescale=rescale,
+    )
+    expected = sitk_series(folder)
+    info, voxels = cli_read(cli, folder, tmp_path)
+    assert_same_as_sitk(info, voxels, expected)
+    # Both equal the series as written, so neither reader is checked only against the other.
+    slope, intercept = (1.0, 0.0) if rescale is None else (float(rescale[1]), float(rescale[0]))
+    np.testing.assert_array_equal(sitk.GetArrayFromImage(voxels), stored * slope + intercept)
+    np.testing.assert_allclose(info["spacing"], (0.7, 0.8, 1.25), atol=1e-6)
+    # GDCM's voxel type where it is an integer; a fractional rescale is float32 here.
+    itk_type = expected.GetPixelIDTypeAsString()
+    ours = {"64-bit float": "float32"}.get(itk_type, info["scalar_type"])
+    names = {
+        "8-bit unsigned integer": "uint8",
+        "8-bit signed integer": "int8",
+        "16-bit unsigned integer": "uint16",
+        "16-bit signed integer": "int16",
+        "32-bit signed integer": "int32",
+        "64-bit float": "float32",
+    }
+    assert names[itk_type] == ours == info["scalar_type"], (itk_type, info["scalar_type"])
+
+
+def test_a_folder_of_several_series_lists_them_and_series_chooses_one(cli, tmp_path):
+    folder = tmp_path / "two"
+    rng = np.random.default_rng(5)
+    uids = ["1.2.826.0.1.3680043.8.498.11", "1.2.826.0.1.3680043.8.498.12"]
+    write_series(folder, stored_values(rng, (4, 5, 6), 16, True), uid=uids[0],
+                 description="arterial")
+    write_series(folder, stored_values(rng, (6, 5, 6), 16, True), uid=uids[1],
+                 description="venous", orientation=SAGITTAL)
+    done = run(cli, "info", folder)
+    assert done.returncode != 0
+    assert "2 DICOM series" in done.stderr and "--series" in done.stderr, done.stderr
+    assert f'{uids[0]} ("arterial", 4 files)' in done.stderr, done.stderr
+    assert f'{uids[1]} ("venous", 6 files)' in done.stderr, done.stderr
+    for uid in uids:
+        info, voxels = cli_read(cli, folder, tmp_path, "--series", uid)
+        assert_same_as_sitk(info, voxels, sitk_series(folder, uid))
+    done = run(cli, "info", folder, "--series", "1.2.3")
+    assert done.returncode != 0 and 'no DICOM series "1.2.3"' in done.stderr, done.stderr
+
+
+def test_a_missing_slice_names_the_slices_around_the_gap(cli, tmp_path):
+    folder = tmp_path / "gap"
+    paths = write_series(folder, stored_values(np.random.default_rng(1), (6, 4, 4), 16, True))
+    paths[3].unlink()
+    done = run(cli, "info", folder)
+    assert done.returncode != 0
+    assert f"between {paths[2]} and {paths[4]}" in done.stderr, done.stderr
+    assert "missing" in done.stderr, done.stderr
+
+
+def test_a_tilted_gantry_is_refused_with_its_angle(cli, tmp_path):
+    folder = tmp_path / "tilt"
+    tilt = np.radians(12.0)
+    positions = [(0.0, 2.0 * k * np.sin(tilt), 2.0 * k * np.cos(tilt)) for k in range(5)]
+    write_series(folder, stored_values(np.random.default_rng(2), (5, 4, 4), 16, True),
+                 positions=positions)
+    done = run(cli, "info", folder)
+    assert done.returncode != 0
+    assert "tilt of about 12.00°" in done.stderr, done.stderr
+
+
+def test_mixed_slice_sizes_name_the_odd_file(cli, tmp_path):
+    folder = tmp_path / "mixed"
+    uid = generate_uid()
+    paths = write_series(folder, stored_values(np.random.default_rng(3), (5, 6, 6), 16, True),
+                         uid=uid)
+    odd = write_series(tmp_path / "odd", stored_values(np.random.default_rng(4), (5, 6, 7), 16,
+                                                        True), uid=uid)
+    odd[2].replace(paths[2])
+    done = run(cli, "info", folder)
+    assert done.returncode != 0
+    assert f"{paths[2]}: its size is 7×6 pixels" in done.stderr, done.stderr
+
+
+def test_a_truncated_file_is_named(cli, tmp_path):
+    folder = tmp_path / "truncated"
+    paths = write_series(folder, stored_values(np.random.default_rng(6), (4, 16, 16), 16, True))
+    data = paths[1].read_bytes()
+    paths[1].write_bytes(data[: len(data) - 200])
+    done = run(cli, "info", folder)
+    assert done.returncode != 0
+    assert str(paths[1]) in done.stderr and "truncated" in done.stderr, done.stderr
+
+
+def test_a_folder_without_dicom_files_says_so(cli, tmp_path):
+    folder = tmp_path / "empty"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("no images here")
+    done = run(cli, "info", folder)
+    assert done.returncode != 0 and "no DICOM files" in done.stderr, done.stderr
+
+
+def test_segment_reads_the_folder_as_it_reads_the_converted_volume(cli, tmp_path):
+    """The series of a bright ball: segmenting the folder gives the same mesh, byte for byte, as
+    segmenting the volume `info --write` converted it to."""
+    n = 24
+    k, j, i = np.mgrid[:n, :n, :n]
+    ball = ((i - 11.5) ** 2 + (j - 12.2) ** 2 + (k - 11.8) ** 2 < 7.5**2) * 1100 + 24
+    folder = tmp_path / "ball"
+    write_series(folder, ball, spacing=(1.0, 1.0, 1.0), orientation=OBLIQUE, signed=False,
+                 bits_stored=12, rescale=("-1024", "1"))
+    converted = tmp_path / "ball.mha"  # MetaImage keeps the geometry's every bit
+    assert run(cli, "info", folder, "--write", converted).returncode == 0
+    meshes = []
+    for source in (folder, converted):
+        out = tmp_path / f"{source.name}.vtp"
+        done = run(cli, "segment", source, "--seed", "12,12,12", "--index", "-o", out)
+        assert done.returncode == 0, done.stderr
+        meshes.append(out.read_bytes())
+    assert meshes[0] == meshes[1]
+    done = run(cli, "segment", converted, "--series", "1.2", "--seed", "1,1,1", "-o",
+               tmp_path / "x.vtp")
+    assert done.returncode != 0 and "only be chosen in a folder" in done.stderr, done.stderr
