@@ -5,6 +5,8 @@
 //! - `families`: families of scenes drawn at random from a variant number (a CT-like scene, thin
 //!   walls, touching tubes, thin vessels around a ring, a stent) with random grids, blur and
 //!   noise — [`Family::variant`] — to judge the balloon on scans it was never tuned on.
+//! - `angiogram`: a CT angiogram of the abdomen at clinical size (an aorta with its renal and
+//!   iliac branches, 512×512×600 voxels or any size asked for) — [`Angiogram::new`].
 //!
 //! Underneath: `sdf` (signed distances of the solids and their set operations), `tube`
 //! (polyline tubes with the arc length of the nearest point), `scene` (layers of solids
@@ -14,6 +16,7 @@
 
 use crate::error::{Error, Result};
 
+mod angiogram;
 mod families;
 mod grid;
 mod imaging;
@@ -23,6 +26,7 @@ mod sdf;
 mod shapes;
 mod tube;
 
+pub use angiogram::Angiogram;
 pub use families::{Family, Parameter, Variant, VOXEL_BUDGET};
 pub use shapes::{oblique_direction, render, Phantom, PhantomOptions, Shape};
 

@@ -1,21 +1,27 @@
 //! `balloonseg phantom NAME -o OUT.mha`: writes a synthetic test volume and prints its seed —
-//! one of the fixed shapes, rendered as the look flags say, or variant N of a family, which
-//! draws its own look (so the look flags are an error with a family).
+//! one of the fixed shapes, rendered as the look flags say, variant N of a family, which draws
+//! its own look (so the look flags are an error with a family), or variant N of the
+//! clinical-size angiogram on a grid of `--dims` voxels.
 
 use std::process::ExitCode;
 
-use balloonseg::phantom::{self, Family, PhantomOptions, Shape};
+use balloonseg::phantom::{self, Angiogram, Family, Parameter, PhantomOptions, Shape};
 use balloonseg::{io, Error, Result};
 use serde_json::{json, Map, Value};
 
 #[derive(clap::Args)]
 pub struct Args {
-    /// A shape (sphere, torus, double-torus, y-vessel, touching-tubes, fading-tube) or a family
-    /// (ct-scene, thin-wall, touching-pair, thin-vessels, stent, vessel-chamber).
+    /// A shape (sphere, torus, double-torus, y-vessel, touching-tubes, fading-tube), a family
+    /// (ct-scene, thin-wall, touching-pair, thin-vessels, stent, vessel-chamber) or
+    /// `angiogram` (an abdominal CT angiogram at clinical size).
     name: String,
-    /// The family's variant number (default 0); every number gives another scene.
+    /// The family's or the angiogram's variant number (default 0); every number gives another
+    /// scene.
     #[arg(long)]
     variant: Option<u64>,
+    /// The angiogram's grid, voxels "x,y,z" (default 512,512,600, a clinical scan).
+    #[arg(long, value_parser = parse_dims)]
+    dims: Option<[usize; 3]>,
     #[command(flatten)]
     look: Look,
     #[command(flatten)]
@@ -74,10 +80,34 @@ impl Look {
     }
 }
 
+/// The name that asks for the angiogram.
+const ANGIOGRAM: &str = "angiogram";
+
+fn parse_dims(text: &str) -> std::result::Result<[usize; 3], String> {
+    let values: Vec<usize> = text
+        .split(',')
+        .map(|v| v.trim().parse())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|e| format!("'{text}' is not three voxel counts x,y,z: {e}"))?;
+    values
+        .try_into()
+        .map_err(|_| format!("'{text}' is not three voxel counts x,y,z"))
+}
+
 pub fn run(args: &Args) -> Result<ExitCode> {
-    let summary = match Family::from_name(&args.name) {
-        Ok(family) => write_variant(args, family)?,
-        Err(_) => write_shape(args)?,
+    if args.dims.is_some() && args.name != ANGIOGRAM {
+        return Err(Error::invalid_argument(format!(
+            "--dims sets the angiogram's grid; '{}' has its own (leave --dims out)",
+            args.name
+        )));
+    }
+    let summary = if args.name == ANGIOGRAM {
+        write_angiogram(args)?
+    } else {
+        match Family::from_name(&args.name) {
+            Ok(family) => write_variant(args, family)?,
+            Err(_) => write_shape(args)?,
+        }
     };
     let json = serde_json::to_string_pretty(&summary).expect("plain JSON values");
     crate::print_out(&format!("{json}\n"))?;
@@ -90,6 +120,7 @@ fn write_shape(args: &Args) -> Result<Value> {
             .iter()
             .map(|s| s.name())
             .chain(Family::ALL.iter().map(|f| f.name()))
+            .chain([ANGIOGRAM])
             .collect();
         Error::invalid_argument(format!(
             "unknown phantom '{}'; choose one of {}",
@@ -117,22 +148,23 @@ fn write_shape(args: &Args) -> Result<Value> {
     }))
 }
 
-fn write_variant(args: &Args, family: Family) -> Result<Value> {
+/// Errors when look flags are given to a phantom that draws its own look.
+fn refuse_look(args: &Args) -> Result<()> {
     let given = args.look.given();
-    if !given.is_empty() {
-        return Err(Error::invalid_argument(format!(
-            "{} set how a fixed shape looks; a family draws its own spacing, direction, blur \
-             and noise from the variant number: leave them out, or pick another --variant",
-            given.join(", ")
-        )));
+    if given.is_empty() {
+        return Ok(());
     }
-    let number = args.variant.unwrap_or(0);
-    let variant = family.variant(number)?;
-    io::write_image(&args.output.path, &variant.image)?;
-    let geometry = variant.image.geometry();
-    let seed = variant.seed();
-    let parameters: Map<String, Value> = variant
-        .describe()
+    Err(Error::invalid_argument(format!(
+        "{} set how a fixed shape looks; '{}' draws its own spacing, direction, blur and noise \
+         from the variant number: leave them out, or pick another --variant",
+        given.join(", "),
+        args.name
+    )))
+}
+
+/// The drawn parameters as a JSON object.
+fn parameters_json(parameters: &[Parameter]) -> Map<String, Value> {
+    parameters
         .iter()
         .map(|p| {
             let value = match p.values.as_slice() {
@@ -141,7 +173,39 @@ fn write_variant(args: &Args, family: Family) -> Result<Value> {
             };
             (p.name.to_string(), value)
         })
-        .collect();
+        .collect()
+}
+
+fn write_angiogram(args: &Args) -> Result<Value> {
+    refuse_look(args)?;
+    let number = args.variant.unwrap_or(0);
+    let angiogram = Angiogram::new(number, args.dims.unwrap_or(Angiogram::FULL_SIZE))?;
+    let image = angiogram.render()?;
+    io::write_image(&args.output.path, &image)?;
+    let geometry = image.geometry();
+    let seed = angiogram.seed();
+    Ok(json!({
+        "file": crate::shown(&args.output.path),
+        "phantom": ANGIOGRAM,
+        "variant": number,
+        "dims": image.dims(),
+        "spacing": geometry.spacing(),
+        "scalar_type": image.scalar_type().name(),
+        "seed_world": seed.to_array(),
+        "seed_index": geometry.world_to_index(seed).to_array(),
+        "genus": angiogram.genus(),
+        "parameters": parameters_json(angiogram.describe()),
+    }))
+}
+
+fn write_variant(args: &Args, family: Family) -> Result<Value> {
+    refuse_look(args)?;
+    let number = args.variant.unwrap_or(0);
+    let variant = family.variant(number)?;
+    io::write_image(&args.output.path, &variant.image)?;
+    let geometry = variant.image.geometry();
+    let seed = variant.seed();
+    let parameters = parameters_json(variant.describe());
     Ok(json!({
         "file": crate::shown(&args.output.path),
         "phantom": family.name(),
@@ -197,5 +261,10 @@ mod tests {
         assert!(error.message().contains("--variant"), "{}", error.message());
         let error = run_with(&["cube"]).unwrap_err();
         assert!(error.message().contains("ct-scene"), "{}", error.message());
+        assert!(error.message().contains("angiogram"), "{}", error.message());
+        let error = run_with(&["torus", "--dims", "100,100,100"]).unwrap_err();
+        assert!(error.message().contains("--dims"), "{}", error.message());
+        let error = run_with(&["angiogram", "--dims", "100,100,100", "--blur", "1"]).unwrap_err();
+        assert!(error.message().contains("--blur"), "{}", error.message());
     }
 }
