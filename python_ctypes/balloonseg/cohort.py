@@ -32,7 +32,7 @@ from .mesh import MESH_FORMATS
 from .segmenter import _params_struct, parameter_info, segment_objects
 
 #: The manifest's columns other than the parameters, as ``balloonseg batch`` reads them.
-COLUMNS = ("id", "image", "seeds", "stops", "roi", "coordinates")
+COLUMNS = ("id", "image", "seeds", "stops", "roi", "series", "coordinates")
 #: The results table's columns, as ``balloonseg batch`` writes them.
 RESULT_COLUMNS = (
     "id",
@@ -63,6 +63,7 @@ class Case:
     roi: tuple | None = None
     coordinates: str = "world"
     params: dict = field(default_factory=dict)
+    series: str | None = None
 
 
 @dataclass
@@ -192,6 +193,7 @@ def read_manifest(path) -> list[Case]:
                 roi=roi,
                 coordinates=coordinates,
                 params=params,
+                series=cells.get("series"),
             )
         )
     if not cases:
@@ -249,6 +251,32 @@ def check_outputs(cases, output_dir, format: str = "vtp") -> None:
             raise InvalidArgumentError(clash)
 
 
+def _read_image(path: str, series: str | None):
+    """The volume as the CLI reads it: a file, or a folder holding a DICOM series (the one it
+    holds, or ``series``, a SeriesInstanceUID) read by SimpleITK's ImageSeriesReader, sorted along
+    the slice normal by GDCM as the CLI sorts it. The CLI's checks (unequal gaps, a tilted
+    gantry) are not repeated here; ITK only warns about them."""
+    import SimpleITK as sitk
+
+    if not Path(path).is_dir():
+        if series is not None:
+            raise InvalidArgumentError(f"{path}: a DICOM series can only be chosen in a folder")
+        return sitk.ReadImage(path)
+    uids = sitk.ImageSeriesReader.GetGDCMSeriesIDs(path)
+    if series is None and len(uids) != 1:
+        listed = ", ".join(uids) if uids else "none"
+        raise InvalidArgumentError(
+            f"{path}: the folder holds {len(uids)} DICOM series ({listed}); choose one with the "
+            "manifest's series column"
+        )
+    uid = uids[0] if series is None else series
+    if uid not in uids:
+        raise InvalidArgumentError(f"{path}: no DICOM series {uid} in this folder")
+    reader = sitk.ImageSeriesReader()
+    reader.SetFileNames(sitk.ImageSeriesReader.GetGDCMSeriesFileNames(path, uid))
+    return reader.Execute()
+
+
 def run_case(case: Case, output_dir, format: str = "vtp", threads: int = 0) -> CaseResult:
     """Runs one case and writes its meshes to ``output_dir`` (``ID.FORMAT``, or ``ID_L.FORMAT``
     for each label L of a case with several), after removing what an earlier run of the case
@@ -274,7 +302,7 @@ def run_case(case: Case, output_dir, format: str = "vtp", threads: int = 0) -> C
         if _is_case_mesh(old.name, case.id, suffix):
             old.unlink()
     try:
-        image = sitk.ReadImage(case.image)
+        image = _read_image(case.image, case.series)
         geometry = {
             "spacing": image.GetSpacing(),
             "origin": image.GetOrigin(),

@@ -16,13 +16,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import CLI, missing
+from conftest import CLI, assert_same_mesh, missing, read_vtp
 
 pydicom = pytest.importorskip("pydicom")
 sitk = pytest.importorskip("SimpleITK")
 
 from pydicom.dataset import FileDataset, FileMetaDataset  # noqa: E402
-from pydicom.uid import CTImageStorage, ExplicitVRLittleEndian, generate_uid  # noqa: E402
+from pydicom.uid import (  # noqa: E402
+    CTImageStorage,
+    DeflatedExplicitVRLittleEndian,
+    ExplicitVRLittleEndian,
+    RLELossless,
+    generate_uid,
+)
 
 
 @pytest.fixture(scope="module")
@@ -31,6 +37,12 @@ def cli() -> Path:
     if not path.exists():
         missing(f"{path} is not built; run `cargo build --release --features cli`")
     return path
+
+
+def ball(n: int = 24) -> np.ndarray:
+    """Stored values of a bright ball (1124 in, 24 out) on an n³ grid, (k, j, i)."""
+    k, j, i = np.mgrid[:n, :n, :n]
+    return ((i - 11.5) ** 2 + (j - 12.2) ** 2 + (k - 11.8) ** 2 < 7.5**2) * 1100 + 24
 
 
 def ds(x: float) -> str:
@@ -72,6 +84,7 @@ def write_series(
     description: str = "test series",
     positions=None,
     seed: int = 0,
+    transfer_syntax=ExplicitVRLittleEndian,
 ) -> list[Path]:
     """Writes `stored` (k, j, i) as one file per slice, in a shuffled file-name order so that
     only the positions can sort them. Returns the paths, slice order."""
@@ -91,7 +104,9 @@ def write_series(
         meta = FileMetaDataset()
         meta.MediaStorageSOPClassUID = CTImageStorage
         meta.MediaStorageSOPInstanceUID = generate_uid()
-        meta.TransferSyntaxUID = ExplicitVRLittleEndian
+        meta.TransferSyntaxUID = (
+            ExplicitVRLittleEndian if transfer_syntax == RLELossless else transfer_syntax
+        )
         path = folder / f"{uid[-6:]}_{names[k]:04d}.dcm"
         d = FileDataset(str(path), {}, file_meta=meta, preamble=b"\0" * 128)
         d.SOPClassUID = CTImageStorage
@@ -118,7 +133,11 @@ def write_series(
         if rescale is not None:
             d.RescaleIntercept, d.RescaleSlope = rescale
             d.RescaleType = "HU"
-        d.PixelData = stored[k].astype(dtype[bits_allocated, signed]).tobytes()
+        pixels = stored[k].astype(dtype[bits_allocated, signed])
+        if transfer_syntax == RLELossless:
+            d.compress(RLELossless, pixels)  # pydicom's own encoder
+        else:
+            d.PixelData = pixels.tobytes()
         d.save_as(path, enforce_file_format=True)
         paths.append(path)
     return paths
@@ -158,8 +177,12 @@ def assert_same_as_sitk(info, voxels, expected):
 
 
 CASES = {
-    # name: orientation, bits allocated, bits stored, signed, rescale (intercept, slope)
+    # name: orientation, bits allocated, bits stored, signed, rescale (intercept, slope)[,
+    # transfer syntax]
     "axial-int16-hu": (AXIAL, 16, 16, True, ("-1024", "1")),
+    "axial-int16-hu-rle": (AXIAL, 16, 16, True, ("-1024", "1"), RLELossless),
+    "sagittal-uint12-deflated": (SAGITTAL, 16, 12, False, ("-1024", "1"),
+                                 DeflatedExplicitVRLittleEndian),
     "axial-uint12-hu": (AXIAL, 16, 12, False, ("-1024", "1")),
     "sagittal-uint16": (SAGITTAL, 16, 16, False, None),
     "oblique-int12-fractional": (OBLIQUE, 16, 12, True, ("-1024.25", "0.5")),
@@ -170,7 +193,7 @@ CASES = {
 
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_geometry_and_voxels_equal_simpleitk(cli, tmp_path, name):
-    orientation, bits_allocated, bits_stored, signed, rescale = CASES[name]
+    orientation, bits_allocated, bits_stored, signed, rescale, *syntax = CASES[name]
     rng = np.random.default_rng(zlib.crc32(name.encode()))
     stored = stored_values(rng, (7, 9, 11), bits_stored, signed)
     folder = tmp_path / name
@@ -182,7 +205,10 @@ def test_geometry_and_voxels_equal_simpleitk(cli, tmp_path, name):
         bits_stored=bits_stored,
         signed=signed,
         rescale=rescale,
+        transfer_syntax=syntax[0] if syntax else ExplicitVRLittleEndian,
     )
+    if syntax:
+        assert pydicom.dcmread(next(folder.iterdir())).file_meta.TransferSyntaxUID == syntax[0]
     expected = sitk_series(folder)
     info, voxels = cli_read(cli, folder, tmp_path)
     assert_same_as_sitk(info, voxels, expected)
@@ -279,11 +305,8 @@ def test_a_folder_without_dicom_files_says_so(cli, tmp_path):
 def test_segment_reads_the_folder_as_it_reads_the_converted_volume(cli, tmp_path):
     """The series of a bright ball: segmenting the folder gives the same mesh, byte for byte, as
     segmenting the volume `info --write` converted it to."""
-    n = 24
-    k, j, i = np.mgrid[:n, :n, :n]
-    ball = ((i - 11.5) ** 2 + (j - 12.2) ** 2 + (k - 11.8) ** 2 < 7.5**2) * 1100 + 24
     folder = tmp_path / "ball"
-    write_series(folder, ball, spacing=(1.0, 1.0, 1.0), orientation=OBLIQUE, signed=False,
+    write_series(folder, ball(), spacing=(1.0, 1.0, 1.0), orientation=OBLIQUE, signed=False,
                  bits_stored=12, rescale=("-1024", "1"))
     converted = tmp_path / "ball.mha"  # MetaImage keeps the geometry's every bit
     assert run(cli, "info", folder, "--write", converted).returncode == 0
@@ -297,3 +320,40 @@ def test_segment_reads_the_folder_as_it_reads_the_converted_volume(cli, tmp_path
     done = run(cli, "segment", converted, "--series", "1.2", "--seed", "1,1,1", "-o",
                tmp_path / "x.vtp")
     assert done.returncode != 0 and "only be chosen in a folder" in done.stderr, done.stderr
+
+
+def test_a_manifest_series_column_reads_alike_in_batch_and_the_python_cohort(cli, tmp_path):
+    """A folder of two series, each a case chosen by the `series` column: the command line's
+    batch and balloonseg.cohort (SimpleITK's ImageSeriesReader) give the same meshes."""
+    from balloonseg import cohort
+
+    folder = tmp_path / "study"
+    uids = ["1.2.826.0.1.3680043.8.498.21", "1.2.826.0.1.3680043.8.498.22"]
+    for uid, intercept in zip(uids, ("-1024", "-1000")):
+        write_series(folder, ball(), spacing=(0.75, 0.75, 1.25), origin=(-9.0, -9.0, 0.0),
+                     uid=uid, signed=False, bits_stored=12, rescale=(intercept, "1"))
+    manifest = tmp_path / "cohort.csv"
+    manifest.write_text(
+        "id,image,seeds,coordinates,series\n"
+        + "".join(f'case{n},study,"12,12,12",index,{uid}\n' for n, uid in enumerate(uids))
+    )
+    done = run(cli, "batch", manifest, "-o", tmp_path / "cli")
+    assert done.returncode == 0, done.stderr
+    results = cohort.run_manifest(manifest, tmp_path / "py")
+    assert [r.status for r in results] == ["ok", "ok"], results
+    for n, result in enumerate(results):
+        points, triangles, states = read_vtp(tmp_path / "cli" / f"case{n}.vtp")
+        assert_same_mesh(list(result.meshes.values())[0], points, triangles, states)
+    manifest.write_text('id,image,seeds,coordinates\nboth,study,"12,12,12",index\n')
+    failed = cohort.run_manifest(manifest, tmp_path / "py2")
+    assert failed[0].status == "failed" and "2 DICOM series" in failed[0].error, failed
+
+
+def test_8_bit_rle_which_dicom_rs_decodes_wrongly_is_refused(cli, tmp_path):
+    folder = tmp_path / "rle8"
+    paths = write_series(folder, stored_values(np.random.default_rng(7), (3, 5, 6), 8, False),
+                         bits_allocated=8, bits_stored=8, signed=False,
+                         transfer_syntax=RLELossless)
+    done = run(cli, "info", folder)
+    assert done.returncode != 0
+    assert "8-bit RLE" in done.stderr and str(paths[0].parent) in done.stderr, done.stderr

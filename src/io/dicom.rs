@@ -19,9 +19,10 @@
 //! float32 (ITK: float64; float32 is what the balloon works in and halves the memory).
 //!
 //! Transfer syntaxes: implicit and explicit VR little endian, deflated explicit VR little
-//! endian, encapsulated uncompressed, JPEG baseline, extended and lossless and RLE lossless
-//! (dicom-pixeldata's pure-Rust `native` codecs). JPEG-LS and JPEG 2000 need C codecs that are
-//! not linked; such a file is an error naming its transfer syntax.
+//! endian, encapsulated uncompressed, JPEG baseline, extended and lossless, and RLE lossless
+//! (dicom-pixeldata's pure-Rust `native` codecs), except 8-bit RLE, which dicom-rs 0.9 decodes
+//! one pixel late. JPEG-LS and JPEG 2000 need C codecs that are not linked. An undecodable file
+//! is an error naming it and its transfer syntax.
 
 mod stack;
 
@@ -57,6 +58,7 @@ const PIXEL_REPRESENTATION: Tag = Tag(0x0028, 0x0103);
 const RESCALE_INTERCEPT: Tag = Tag(0x0028, 0x1052);
 const RESCALE_SLOPE: Tag = Tag(0x0028, 0x1053);
 const PIXEL_DATA: Tag = Tag(0x7FE0, 0x0010);
+const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
 
 /// How the stored integers of a slice are laid out.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -507,15 +509,27 @@ fn decode_slice<T>(slice: &Slice, out: &mut [T], convert: &impl Fn(f64) -> T) ->
     let object = OpenFileOptions::new()
         .open_file(path)
         .map_err(|e| corrupt(path, format!("cannot read the DICOM file ({e})")))?;
-    let decoded = object.decode_pixel_data().map_err(|e| {
+    let syntax = object.meta().transfer_syntax.trim_end_matches('\0');
+    let undecodable = |why: String| {
         Error::format(format!(
-            "{}: cannot decode the pixel data ({e}); transfer syntax {}. balloonseg decodes \
-             uncompressed, deflated, JPEG (baseline, extended, lossless) and RLE series; \
-             convert others with `gdcmconv --raw` or dcmdjpeg",
+            "{}: cannot decode the pixel data ({why}); transfer syntax {syntax}. balloonseg \
+             decodes uncompressed, deflated, JPEG (baseline, extended, lossless) and 16-bit RLE \
+             series; convert others with `gdcmconv --raw` or dcmdjpeg",
             path.display(),
-            object.meta().transfer_syntax.trim_end_matches('\0')
         ))
-    })?;
+    };
+    if syntax == RLE_LOSSLESS && slice.format.bits_allocated == 8 {
+        // dicom-rs 0.9 puts 8-bit RLE pixels one place late (the last one lost).
+        return Err(undecodable(
+            "8-bit RLE, which dicom-rs 0.9 decodes wrongly".into(),
+        ));
+    }
+    // The codecs index their input without checking it everywhere: a corrupt file must be an
+    // error, never a crash.
+    let decoded =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| object.decode_pixel_data()))
+            .map_err(|_| undecodable("the decoder failed on corrupt data".into()))?
+            .map_err(|e| undecodable(e.to_string()))?;
     let bytes = usize::from(slice.format.bits_allocated / 8);
     let data = decoded.data();
     if data.len() < out.len() * bytes {
@@ -539,6 +553,98 @@ fn decode_slice<T>(slice: &Slice, out: &mut [T], convert: &impl Fn(f64) -> T) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::test_images::{assert_never_panics, scratch_dir};
+    use dicom_core::{DataElement, PrimitiveValue, VR};
+    use dicom_object::{FileMetaTableBuilder, InMemDicomObject};
+
+    /// A multi-valued string element's value.
+    fn strings(values: &[&str]) -> PrimitiveValue {
+        PrimitiveValue::Strs(values.iter().map(|v| v.to_string()).collect())
+    }
+
+    /// A one-slice series file: 3×2 signed 16-bit pixels with a CT rescale, sagittal (the
+    /// normal is −x) at `x`.
+    fn slice_file(x: f64, pixels: &[i16; 6]) -> Vec<u8> {
+        let mut object = InMemDicomObject::new_empty();
+        let mut put = |tag, vr, value| object.put(DataElement::new(tag, vr, value));
+        put(SERIES_INSTANCE_UID, VR::UI, PrimitiveValue::from("1.2.3"));
+        put(
+            Tag(0x0008, 0x0016),
+            VR::UI,
+            PrimitiveValue::from("1.2.840.10008.5.1.4.1.1.2"),
+        );
+        put(Tag(0x0008, 0x0018), VR::UI, PrimitiveValue::from("1.2.3.4"));
+        put(
+            Tag(0x0028, 0x0004),
+            VR::CS,
+            PrimitiveValue::from("MONOCHROME2"),
+        );
+        let x = x.to_string();
+        put(IMAGE_POSITION_PATIENT, VR::DS, strings(&[&x, "7.5", "4"]));
+        let cosines = strings(&["0", "1", "0", "0", "0", "-1"]);
+        put(IMAGE_ORIENTATION_PATIENT, VR::DS, cosines);
+        put(PIXEL_SPACING, VR::DS, strings(&["0.5", "0.25"]));
+        put(SAMPLES_PER_PIXEL, VR::US, PrimitiveValue::from(1u16));
+        put(ROWS, VR::US, PrimitiveValue::from(2u16));
+        put(COLUMNS, VR::US, PrimitiveValue::from(3u16));
+        put(BITS_ALLOCATED, VR::US, PrimitiveValue::from(16u16));
+        put(BITS_STORED, VR::US, PrimitiveValue::from(16u16));
+        put(HIGH_BIT, VR::US, PrimitiveValue::from(15u16));
+        put(PIXEL_REPRESENTATION, VR::US, PrimitiveValue::from(1u16));
+        put(RESCALE_INTERCEPT, VR::DS, PrimitiveValue::from("-1024"));
+        put(RESCALE_SLOPE, VR::DS, PrimitiveValue::from("1"));
+        let bytes: Vec<u8> = pixels.iter().flat_map(|p| p.to_le_bytes()).collect();
+        put(PIXEL_DATA, VR::OW, PrimitiveValue::from(bytes));
+        let meta = FileMetaTableBuilder::new().transfer_syntax("1.2.840.10008.1.2.1");
+        let mut file = Vec::new();
+        object
+            .with_meta(meta)
+            .unwrap()
+            .write_all(&mut file)
+            .unwrap();
+        file
+    }
+
+    #[test]
+    fn a_written_series_reads_with_its_geometry_and_rescaled_voxels() {
+        let dir = scratch_dir();
+        // File names in the opposite order of the positions: only the positions sort them.
+        std::fs::write(dir.path().join("a.dcm"), slice_file(-7.0, &[0; 6])).unwrap();
+        std::fs::write(
+            dir.path().join("b.dcm"),
+            slice_file(-5.0, &[1, 2, 3, 4, 5, 6]),
+        )
+        .unwrap();
+        std::fs::write(dir.path().join("notes.txt"), "not DICOM").unwrap();
+        let image = read(dir.path(), None).unwrap();
+        assert_eq!(image.dims(), [3, 2, 2]);
+        let g = image.geometry();
+        assert_eq!(g.spacing(), [0.25, 0.5, 2.0]);
+        assert_eq!(g.origin(), [-5.0, 7.5, 4.0]);
+        // Columns: the row cosine (0,1,0), the column cosine (0,0,-1), their cross (-1,0,0).
+        let direction = [0.0, 0.0, -1.0, 1.0, 0.0, 0.0, 0.0, -1.0, 0.0];
+        assert_eq!(g.direction(), direction);
+        let mut voxels: Vec<i32> = (1..=6).map(|v| v - 1024).collect();
+        voxels.extend([-1024; 6]);
+        // Signed 16-bit with an intercept: int32, as GDCM chooses.
+        assert_eq!(image.buffer(), &VoxelBuffer::I32(voxels));
+    }
+
+    #[test]
+    fn corrupt_and_truncated_slices_are_errors_never_panics() {
+        let dir = scratch_dir();
+        let pixels = [-3, 0, 7, 1000, -1000, 5];
+        let file = slice_file(0.0, &pixels);
+        let path = dir.path().join("slice.dcm");
+        let original = {
+            std::fs::write(&path, &file).unwrap();
+            read(dir.path(), None).unwrap()
+        };
+        assert_never_panics(&file, &original, |bytes| {
+            std::fs::write(&path, bytes).unwrap();
+            read(dir.path(), None)
+        });
+    }
 
     fn format(bits_allocated: u16, bits_stored: u16, signed: bool) -> PixelFormat {
         PixelFormat {
