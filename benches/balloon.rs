@@ -1,15 +1,17 @@
 //! The balloon per phase and end to end (issue 3's speed targets): inflation steps and
 //! self-intersection searches on the aorta half-grown, re-parametrisation plus refinement on the
-//! torus phantom once it has met itself, and whole runs — torus phantom, aorta, carotid — from
+//! torus phantom once it has met itself, and whole runs — torus phantom, aorta, carotid, and
+//! the clinical-size angiogram phantom (issue 18) at the tests' reduced size, 192×160×128 — from
 //! defaults and a seed. Marching cubes and signed distance on their own have their own benches.
 //!
 //! The real scans come from `BALLOONSEG_DATA` (default ../shared/data); without them only the
-//! phantom benches run. `cargo bench --features io --bench balloon`.
+//! phantom benches run. `BALLOONSEG_BENCH_FULL_SIZE=1` adds the angiogram at 512×512×600 (a
+//! minute to render, 300 MB of voxels). `cargo bench --features io --bench balloon`.
 
 use std::hint::black_box;
 
 use balloonseg::balloon::{BalloonParams, Segmenter};
-use balloonseg::phantom::{self, PhantomOptions, Shape};
+use balloonseg::phantom::{self, Angiogram, PhantomOptions, Shape};
 use balloonseg::{io, Image};
 use balloonseg_testkit::data_dir;
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
@@ -32,6 +34,15 @@ fn real_case(name: &'static str, file: &str, seed: [f64; 3]) -> Option<Case> {
         image: io::read_image(&path).expect("readable scan"),
         seed: DVec3::from(seed),
     })
+}
+
+fn angiogram(name: &'static str, dims: [usize; 3]) -> Case {
+    let angiogram = Angiogram::new(0, dims).expect("the angiogram fits its grid");
+    Case {
+        name,
+        image: angiogram.render().expect("rendered"),
+        seed: angiogram.seed(),
+    }
 }
 
 fn torus() -> Case {
@@ -131,7 +142,11 @@ fn bench_balloon(c: &mut Criterion) {
         bench_phases(c, aorta);
     }
     bench_repair(c, &torus);
-    let cases: Vec<Case> = [Some(torus), aorta, carotid]
+    let full_size = std::env::var_os("BALLOONSEG_BENCH_FULL_SIZE")
+        .is_some()
+        .then(|| angiogram("angiogram_512x512x600", Angiogram::FULL_SIZE));
+    let reduced = angiogram("angiogram_192x160x128", [192, 160, 128]);
+    let cases: Vec<Case> = [Some(torus), aorta, carotid, Some(reduced), full_size]
         .into_iter()
         .flatten()
         .collect();
