@@ -373,21 +373,17 @@ fn check_alike(slices: &[Slice]) -> Result<()> {
             }
             (a, b) => a.is_none() && b.is_none(),
         };
-        if !close(&slice.orientation, &first.orientation) {
-            let show = |o: &Option<Vec<f64>>| format!("{o:?}");
-            return Err(differ(
+        for (tag, here, there) in [
+            (
                 "ImageOrientationPatient",
-                show(&slice.orientation),
-                show(&first.orientation),
-            ));
-        }
-        if !close(&slice.pixel_spacing, &first.pixel_spacing) {
-            let show = |o: &Option<Vec<f64>>| format!("{o:?}");
-            return Err(differ(
-                "PixelSpacing",
-                show(&slice.pixel_spacing),
-                show(&first.pixel_spacing),
-            ));
+                &slice.orientation,
+                &first.orientation,
+            ),
+            ("PixelSpacing", &slice.pixel_spacing, &first.pixel_spacing),
+        ] {
+            if !close(here, there) {
+                return Err(differ(tag, format!("{here:?}"), format!("{there:?}")));
+            }
         }
     }
     Ok(())
