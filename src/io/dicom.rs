@@ -36,6 +36,7 @@ use dicom_pixeldata::PixelDecoder;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::allocation;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::volume::{Image, ScalarType, VoxelBuffer};
@@ -492,7 +493,7 @@ fn voxels<T: Copy + Default + Send>(
     let total = plane.checked_mul(slices.len()).ok_or_else(|| {
         Error::invalid_volume("the series has more voxels than this machine can address")
     })?;
-    let mut data = vec![T::default(); total];
+    let mut data = allocation::filled(total, T::default(), "the series' voxels")?;
     data.par_chunks_mut(plane)
         .zip(slices.par_iter())
         .try_for_each(|(out, slice)| decode_slice(slice, out, &convert))?;
