@@ -139,9 +139,10 @@ impl Angiogram {
                 });
             }
         }
-        Err(Error::internal(format!(
-            "angiogram variant {number} found no tree that fits {dims:?} voxels in {ATTEMPTS} \
-             draws"
+        Err(Error::invalid_argument(format!(
+            "angiogram variant {number}: no tree in {ATTEMPTS} draws fits {dims:?} voxels \
+             ({:.0} mm across); give more voxels along x, or another --variant",
+            size.x
         )))
     }
 
