@@ -74,8 +74,8 @@ impl Segmenter<'_, '_> {
     }
 
     /// Fairs the final surface (`fairing`) and settles it onto thin layers' crests and the
-    /// local half level where background lies ahead (`settling`), fairing the vertices moved
-    /// onto crests and their neighbours once more, then moves the vertices out by the biases
+    /// structure's edge where background lies ahead (`settling`), fairing the vertices moved
+    /// onto crests or steepest descents and their neighbours once more, then moves the vertices out by the biases
     /// of their triangles and of the fine image on a curved surface (`curvature_offset`),
     /// unless it stopped with contacts (re-parametrised next, in `validated`). Returns the
     /// positions, by slot, before that move, before settling and before fairing, for
@@ -89,14 +89,19 @@ impl Segmenter<'_, '_> {
             let surface = &mut s.surface;
             let unfaired = s.pool.install(|| fairing::fair(surface));
             let unsettled = s.surface.positions().to_vec();
-            let soft_tissue = s.stats.seed_statistics.as_ref().and_then(|s| s.soft_tissue);
+            let soft_tissue = s.stats.seed_statistics.as_ref().and_then(|s| {
+                s.soft_tissue.map(|level| settling::SoftTissue {
+                    level,
+                    texture: s.texture,
+                })
+            });
             let (surface, image, border) = (&mut s.surface, &s.image, &s.border);
             let settled = s
                 .pool
                 .install(|| settling::settle(surface, image, border, soft_tissue));
             let around: Vec<u32> = s
                 .surface
-                .neighbourhood(settled.crested, 1)
+                .neighbourhood(settled.refair, 1)
                 .into_iter()
                 .collect();
             let surface = &mut s.surface;
