@@ -1,7 +1,7 @@
 //! The balloon per phase and end to end (issue 3's speed targets): inflation steps and
 //! self-intersection searches on the aorta half-grown, re-parametrisation plus refinement on the
 //! torus phantom once it has met itself, and whole runs — torus phantom, aorta, carotid, and
-//! the clinical-size angiogram phantom (issue 18) at the tests' reduced size, 192×160×128 — from
+//! the clinical-size angiogram phantom (issue 18) at the tests' reduced size, 512×512×128 — from
 //! defaults and a seed. Marching cubes and signed distance on their own have their own benches.
 //!
 //! The real scans come from `BALLOONSEG_DATA` (default ../shared/data); without them only the
@@ -145,7 +145,7 @@ fn bench_balloon(c: &mut Criterion) {
     let full_size = std::env::var_os("BALLOONSEG_BENCH_FULL_SIZE")
         .is_some()
         .then(|| angiogram("angiogram_512x512x600", Angiogram::FULL_SIZE));
-    let reduced = angiogram("angiogram_192x160x128", [192, 160, 128]);
+    let reduced = angiogram("angiogram_512x512x128", [512, 512, 128]);
     let cases: Vec<Case> = [Some(torus), aorta, carotid, Some(reduced), full_size]
         .into_iter()
         .flatten()
