@@ -75,12 +75,12 @@ impl Segmenter<'_, '_> {
 
     /// Fairs the final surface (`fairing`) and settles it onto thin layers' crests and the
     /// structure's edge where background lies ahead (`settling`), fairing the vertices moved
-    /// onto crests or steepest descents and their neighbours once more, then moves the vertices out by the biases
-    /// of their triangles and of the fine image on a curved surface (`curvature_offset`),
-    /// unless it stopped with contacts (re-parametrised next, in `validated`). Returns the
-    /// positions, by slot, before that move, before settling and before fairing, for
-    /// `validated` to put back in that order where any made the surface meet itself: a settled
-    /// vertex may move two voxels, onto a crest.
+    /// onto crests or steepest descents and their neighbours once more, then moves the
+    /// vertices out by the biases of their triangles and of the fine image on a curved surface
+    /// (`curvature_offset`), unless it stopped with contacts (re-parametrised next, in
+    /// `validated`). Returns the positions, by slot, before that move, before settling and
+    /// before fairing, for `validated` to put back in that order where any made the surface
+    /// meet itself: a settled vertex may move two voxels, onto a crest.
     pub(super) fn fair(&mut self) -> Vec<Vec<DVec3>> {
         if self.has_self_intersections() {
             return Vec::new();

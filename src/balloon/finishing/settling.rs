@@ -227,6 +227,8 @@ fn onto_steepest_descent(
         .collect::<Option<_>>()?;
     let slope = |k: i64| profile[(k + reach + 2 * span) as usize] - profile[(k + reach) as usize];
     let steepest = (-reach..=reach).min_by(|&a, &b| slope(a).total_cmp(&slope(b)))?;
+    // Steepest at the end of the reach: the edge lies beyond it, farther than a settled vertex
+    // may move.
     if steepest.abs() == reach || slope(steepest) >= 0.0 {
         return None;
     }
