@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # scripts/fuzz.sh TARGET SECONDS: runs one cargo-fuzz target (fuzz/fuzz_targets: volume_readers,
-# mesh_readers, segment, c_abi) for SECONDS with libFuzzer on the nightly toolchain, installing
-# cargo-fuzz when it is missing. The corpus grows in fuzz/corpus/TARGET (seeded with small files
-# of every format the CLI writes) and findings land in fuzz/artifacts/TARGET; the script fails
+# dicom, mesh_readers, segment, c_abi) for SECONDS with libFuzzer on the nightly toolchain,
+# installing cargo-fuzz when it is missing. The corpus grows in fuzz/corpus/TARGET (seeded with
+# small files of every format the CLI writes, and for dicom with fuzz/seeds/dicom) and findings
+# land in fuzz/artifacts/TARGET; the script fails
 # when libFuzzer reports one: a panic, an abort, an allocation over 2 GiB or a run over 20 s.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,7 +16,10 @@ command -v cargo-fuzz >/dev/null || cargo install cargo-fuzz --locked
 
 corpus="$root/fuzz/corpus/$target"
 mkdir -p "$corpus" "$root/fuzz/artifacts/$target"
-if [ -z "$(ls -A "$corpus")" ] && [ "$target" != segment ]; then
+if [ -z "$(ls -A "$corpus")" ] && [ "$target" = dicom ]; then
+  # The CLI writes no DICOM: checked-in slices, one per transfer syntax the reader decodes.
+  cp "$root"/fuzz/seeds/dicom/*.dcm "$corpus"/
+elif [ -z "$(ls -A "$corpus")" ] && [ "$target" != segment ]; then
   cargo build --release --all-features --bin balloonseg --locked -q
   cli="$root/target/release/balloonseg"
   scratch=$(mktemp -d)

@@ -42,7 +42,7 @@ step "Rust tests"
 cargo test --workspace --all-features --locked --release
 
 step "fuzz targets, 15 s each (scripts/fuzz.sh; longer runs in docs/fuzzing.md)"
-for target in volume_readers mesh_readers segment c_abi; do
+for target in volume_readers dicom mesh_readers segment c_abi; do
   bash scripts/fuzz.sh "$target" 15
 done
 

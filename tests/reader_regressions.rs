@@ -62,3 +62,17 @@ fn an_sform_scale_of_2e_minus_4_is_not_a_hang() {
         flipped_x,
     );
 }
+
+#[test]
+fn regression_dicom_rs_allocated_a_slices_declared_length_before_reading_it() {
+    // Found by the `dicom` fuzz target: an 836-byte slice whose SliceThickness declares
+    // 2,863,311,530 bytes. dicom-rs 0.9 allocated them before finding the file short, an abort
+    // where the allocation fails (libFuzzer's 2 GiB limit, `ulimit -v`). The declared lengths are
+    // now checked against the file first, and the error names the element.
+    let error = io::read_image(&regression("dicom-declared-length-2863311530")).unwrap_err();
+    let message = error.to_string();
+    assert!(
+        message.contains("slice.dcm: element (0018,0050) declares 2863311530 bytes but only"),
+        "{message}"
+    );
+}

@@ -24,6 +24,7 @@
 //! one pixel late. JPEG-LS and JPEG 2000 need C codecs that are not linked. An undecodable file
 //! is an error naming it and its transfer syntax.
 
+mod lengths;
 mod stack;
 
 use std::collections::BTreeMap;
@@ -36,6 +37,7 @@ use dicom_pixeldata::PixelDecoder;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::files;
 use crate::allocation;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
@@ -192,8 +194,10 @@ fn corrupt(path: &Path, what: impl std::fmt::Display) -> Error {
     ))
 }
 
-/// One file's header, read up to (not including) the pixel data.
+/// One file's header, read up to (not including) the pixel data, once every length the file
+/// declares is known to fit in it (`lengths`).
 fn header(path: &Path) -> Result<Slice> {
+    lengths::check(path, &files::read(path)?)?;
     let object = OpenFileOptions::new()
         .read_until(PIXEL_DATA)
         .open_file(path)

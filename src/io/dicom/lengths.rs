@@ -1,0 +1,273 @@
+//! Every value length a DICOM file declares, checked against the bytes that follow it before
+//! dicom-rs reads the file: dicom-rs (0.9) allocates a value's declared length before it reads
+//! the value, so a file of a few hundred bytes declaring a 2.8 GB element made it allocate
+//! 2.8 GB (found by the `dicom` fuzz target; GDCM had the same flaw, CVE-2026-3650). A length
+//! no file of this size can hold is refused here, naming the element.
+//!
+//! The walk reads only element headers, with dicom-rs's own decoder for the transfer syntax, and
+//! skips each value; it enters sequences and items, whose elements follow their headers, and
+//! takes an encapsulated pixel data element's items as the fragments they are. A header it
+//! cannot decode ends the walk: dicom-rs stops at the same header with its own error, before
+//! allocating anything for it. A deflated data set is walked through its inflater, and its
+//! lengths are bounded by what DEFLATE can expand the file's remaining bytes to.
+
+use std::path::Path;
+
+use dicom_core::header::{HasLength, Header};
+use dicom_core::{Tag, VR};
+use dicom_encoding::transfer_syntax::{Codec, TransferSyntaxIndex};
+use dicom_parser::stateful::decode::{StatefulDecode, StatefulDecoder};
+use dicom_transfer_syntax_registry::TransferSyntaxRegistry;
+
+use crate::error::{Error, Result};
+
+/// DICOM Part 10: the preamble and "DICM" come before the file meta group.
+const META_START: u64 = 132;
+/// DEFLATE expands at most about 1032:1 (a 258-byte match coded in two bits).
+const MAX_DEFLATE_RATIO: u64 = 1032;
+/// The file meta group's transfer syntax, whatever the data set's.
+const EXPLICIT_VR_LITTLE_ENDIAN: &str = "1.2.840.10008.1.2.1";
+const TRANSFER_SYNTAX_UID: Tag = Tag(0x0002, 0x0010);
+const PIXEL_DATA: Tag = Tag(0x7FE0, 0x0010);
+const ITEM: Tag = Tag(0xFFFE, 0xE000);
+const SEQUENCE_DELIMITER: Tag = Tag(0xFFFE, 0xE0DD);
+
+/// Checks every value length in `file` (the bytes of the DICOM file at `path`) against the bytes
+/// that follow it; an error names the first that cannot fit.
+pub(super) fn check(path: &Path, file: &[u8]) -> Result<()> {
+    let Some(meta) = file.get(META_START as usize..) else {
+        return Ok(());
+    };
+    let explicit = TransferSyntaxRegistry
+        .get(EXPLICIT_VR_LITTLE_ENDIAN)
+        .ok_or_else(|| Error::internal("dicom-rs lacks explicit VR little endian"))?;
+    let Ok(mut meta_decoder) = StatefulDecoder::new_with_ts(meta, explicit, 0) else {
+        return Ok(());
+    };
+    let Some((data_set_start, syntax)) = walk_meta(path, file.len() as u64, &mut meta_decoder)?
+    else {
+        return Ok(());
+    };
+    let Some(syntax) = TransferSyntaxRegistry.get(syntax.trim_end_matches(['\0', ' '])) else {
+        return Ok(());
+    };
+    let rest = &file[data_set_start as usize..];
+    match syntax.codec() {
+        Codec::Dataset(Some(adapter)) => {
+            let inflated = adapter.adapt_reader(Box::new(rest));
+            let bound = (rest.len() as u64).saturating_mul(MAX_DEFLATE_RATIO);
+            match StatefulDecoder::new_with_ts(inflated, syntax, 0) {
+                Ok(mut decoder) => walk_data_set(path, bound, &mut decoder),
+                Err(_) => Ok(()),
+            }
+        }
+        Codec::Dataset(None) => Ok(()),
+        _ => match StatefulDecoder::new_with_ts(rest, syntax, data_set_start) {
+            Ok(mut decoder) => walk_data_set(path, file.len() as u64, &mut decoder),
+            Err(_) => Ok(()),
+        },
+    }
+}
+
+/// Walks the file meta group (always explicit VR little endian, its decoder started at byte
+/// 132) of a file of `size` bytes. Returns where the data set starts and its transfer syntax's
+/// UID, or `None` where a header cannot be decoded.
+fn walk_meta(
+    path: &Path,
+    size: u64,
+    decoder: &mut impl StatefulDecode,
+) -> Result<Option<(u64, String)>> {
+    let mut syntax = None;
+    loop {
+        let start = META_START + decoder.position();
+        let Ok(header) = decoder.decode_header() else {
+            return Ok(None);
+        };
+        if header.tag().group() != 0x0002 {
+            return Ok(syntax.map(|uid| (start, uid)));
+        }
+        let Some(length) = header.length().get() else {
+            return Ok(None);
+        };
+        let remaining = size.saturating_sub(META_START + decoder.position());
+        fits(path, header.tag(), length, remaining)?;
+        if header.tag() == TRANSFER_SYNTAX_UID {
+            let Ok(value) = decoder.read_value(&header) else {
+                return Ok(None);
+            };
+            syntax = Some(value.to_str().into_owned());
+        } else if decoder.skip_bytes(length).is_err() {
+            return Ok(None);
+        }
+    }
+}
+
+/// Walks a data set whose decoder counts positions in a stream of at most `size` bytes.
+fn walk_data_set(path: &Path, size: u64, decoder: &mut impl StatefulDecode) -> Result<()> {
+    // Inside an encapsulated pixel data element, whose items are fragments of bytes.
+    let mut fragments = false;
+    while let Ok(header) = decoder.decode_header() {
+        let (tag, length) = (header.tag(), header.length());
+        let opens_sequence_or_item = match tag {
+            SEQUENCE_DELIMITER => {
+                fragments = false;
+                true
+            }
+            ITEM => !fragments,
+            _ if tag.group() == 0xFFFE => true,
+            PIXEL_DATA if length.is_undefined() => {
+                fragments = true;
+                true
+            }
+            // An undefined length UN is a sequence in implicit VR.
+            _ => header.vr() == VR::SQ || (length.is_undefined() && header.vr() == VR::UN),
+        };
+        if opens_sequence_or_item {
+            continue;
+        }
+        let Some(length) = length.get() else {
+            return Ok(());
+        };
+        fits(path, tag, length, size.saturating_sub(decoder.position()))?;
+        if decoder.skip_bytes(length).is_err() {
+            return Ok(());
+        }
+    }
+    Ok(())
+}
+
+/// Refuses a value of `length` bytes where only `remaining` follow.
+fn fits(path: &Path, tag: Tag, length: u32, remaining: u64) -> Result<()> {
+    if u64::from(length) > remaining {
+        return Err(Error::format(format!(
+            "{}: element {tag} declares {length} bytes but only {remaining} follow; the file \
+             is truncated or corrupt: replace it with the scanner's file or remove it from the \
+             folder",
+            path.display()
+        )));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An explicit VR little endian element: tag, VR, and a 2- or 4-byte length as the VR has.
+    fn element(tag: Tag, vr: &[u8; 2], length: u32, value: &[u8]) -> Vec<u8> {
+        let mut out = Vec::new();
+        out.extend(tag.group().to_le_bytes());
+        out.extend(tag.element().to_le_bytes());
+        out.extend(vr);
+        if matches!(vr, b"OB" | b"OW" | b"SQ" | b"UN" | b"UT") {
+            out.extend([0, 0]);
+            out.extend(length.to_le_bytes());
+        } else {
+            out.extend((length as u16).to_le_bytes());
+        }
+        out.extend(value);
+        out
+    }
+
+    /// An item or delimiter: a tag and a 4-byte length, no VR.
+    fn marker(tag: Tag, length: u32) -> Vec<u8> {
+        let mut out = Vec::new();
+        out.extend(tag.group().to_le_bytes());
+        out.extend(tag.element().to_le_bytes());
+        out.extend(length.to_le_bytes());
+        out
+    }
+
+    /// A Part 10 file: preamble, "DICM", a meta group naming `syntax`, then `data_set`.
+    fn file(syntax: &str, data_set: &[u8]) -> Vec<u8> {
+        let mut uid = syntax.as_bytes().to_vec();
+        if uid.len() % 2 == 1 {
+            uid.push(0);
+        }
+        let mut out = vec![0; 128];
+        out.extend(b"DICM");
+        out.extend(element(TRANSFER_SYNTAX_UID, b"UI", uid.len() as u32, &uid));
+        out.extend(data_set);
+        out
+    }
+
+    fn checked(bytes: &[u8]) -> Result<()> {
+        check(Path::new("slice.dcm"), bytes)
+    }
+
+    const UNDEFINED: u32 = u32::MAX;
+    const SLICE_THICKNESS: Tag = Tag(0x0018, 0x0050);
+    const REFERENCED_IMAGES: Tag = Tag(0x0008, 0x1140);
+
+    #[test]
+    fn lengths_that_fit_pass_and_the_first_that_does_not_is_named() {
+        let thickness = element(SLICE_THICKNESS, b"DS", 4, b"1.25");
+        assert!(checked(&file(EXPLICIT_VR_LITTLE_ENDIAN, &thickness)).is_ok());
+        let mut lying = element(SLICE_THICKNESS, b"OB", 2_863_311_530, b"");
+        lying.extend([0; 10]);
+        let error = checked(&file(EXPLICIT_VR_LITTLE_ENDIAN, &lying)).unwrap_err();
+        let message = error.to_string();
+        assert!(
+            message.contains("(0018,0050) declares 2863311530 bytes but only 10 follow"),
+            "{message}"
+        );
+        // A meta group element that lies.
+        let mut meta_lie = vec![0; 128];
+        meta_lie.extend(b"DICM");
+        meta_lie.extend(element(TRANSFER_SYNTAX_UID, b"UI", 60_000, b"1.2"));
+        assert!(checked(&meta_lie).is_err());
+    }
+
+    #[test]
+    fn an_element_inside_a_sequence_item_is_bounded_too() {
+        let mut data_set = element(REFERENCED_IMAGES, b"SQ", UNDEFINED, b"");
+        data_set.extend(marker(ITEM, UNDEFINED));
+        data_set.extend(element(SLICE_THICKNESS, b"UT", 1 << 30, b"1.25"));
+        data_set.extend(marker(Tag(0xFFFE, 0xE00D), 0));
+        data_set.extend(marker(SEQUENCE_DELIMITER, 0));
+        let error = checked(&file(EXPLICIT_VR_LITTLE_ENDIAN, &data_set)).unwrap_err();
+        assert!(
+            error.to_string().contains("(0018,0050) declares"),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn an_encapsulated_fragment_is_bounded_and_a_true_one_passes() {
+        let fragments = |second: u32| {
+            let mut data_set = element(PIXEL_DATA, b"OB", UNDEFINED, b"");
+            data_set.extend(marker(ITEM, 0));
+            data_set.extend(marker(ITEM, second));
+            data_set.extend([7; 4]);
+            data_set.extend(marker(SEQUENCE_DELIMITER, 0));
+            file("1.2.840.10008.1.2.5", &data_set)
+        };
+        assert!(checked(&fragments(4)).is_ok());
+        let error = checked(&fragments(1 << 31)).unwrap_err();
+        assert!(
+            error.to_string().contains("(FFFE,E000) declares"),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn a_deflated_data_set_is_bounded_by_what_its_bytes_can_inflate_to() {
+        use std::io::Write;
+        let deflate = |data_set: &[u8]| {
+            let mut encoder =
+                flate2::write::DeflateEncoder::new(Vec::new(), flate2::Compression::fast());
+            encoder.write_all(data_set).unwrap();
+            file("1.2.840.10008.1.2.1.99", &encoder.finish().unwrap())
+        };
+        let thickness = element(SLICE_THICKNESS, b"DS", 4, b"1.25");
+        assert!(checked(&deflate(&thickness)).is_ok());
+        let lying = element(SLICE_THICKNESS, b"OB", 3_000_000_000, b"");
+        assert!(checked(&deflate(&lying)).is_err());
+    }
+
+    #[test]
+    fn bytes_that_are_not_dicom_end_the_walk_without_an_error() {
+        assert!(checked(b"").is_ok());
+        assert!(checked(&[0xAB; 300]).is_ok());
+    }
+}
