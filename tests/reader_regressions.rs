@@ -76,3 +76,30 @@ fn regression_dicom_rs_allocated_a_slices_declared_length_before_reading_it() {
         "{message}"
     );
 }
+
+#[test]
+fn regression_a_stray_element_in_the_dicom_meta_group_hid_a_declared_length_from_the_check() {
+    // Found by CI's 15 s of the `dicom` target: the meta group holds an element of group 7FFF.
+    // dicom-rs reads the meta group by its group length; the check took that element for the
+    // data set's start, found no transfer syntax and checked nothing, and dicom-rs then
+    // allocated the 3,184,309,496 bytes that (0028,9A7D) declares.
+    let error = io::read_image(&regression("dicom-meta-group-stray-element")).unwrap_err();
+    let message = error.to_string();
+    assert!(
+        message.contains("slice.dcm: element (0028,9A7D) declares 3184309496 bytes but only"),
+        "{message}"
+    );
+}
+
+#[test]
+fn regression_a_two_byte_ul_put_dicom_rs_out_of_step_with_the_file() {
+    // Found by the `dicom` target: PixelRepresentation as a UL of 2 bytes. dicom-rs reads only
+    // whole 4-byte numbers, took the 2 bytes left over for the next header and allocated the
+    // 4,294,901,760 bytes that header declared.
+    let error = io::read_image(&regression("dicom-ul-of-two-bytes")).unwrap_err();
+    let message = error.to_string();
+    assert!(
+        message.contains("slice.dcm: element (0028,0103) (UL) declares 2 bytes, not a whole"),
+        "{message}"
+    );
+}

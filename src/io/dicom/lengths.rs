@@ -27,6 +27,7 @@ const META_START: u64 = 132;
 const MAX_DEFLATE_RATIO: u64 = 1032;
 /// The file meta group's transfer syntax, whatever the data set's.
 const EXPLICIT_VR_LITTLE_ENDIAN: &str = "1.2.840.10008.1.2.1";
+const GROUP_LENGTH: Tag = Tag(0x0002, 0x0000);
 const TRANSFER_SYNTAX_UID: Tag = Tag(0x0002, 0x0010);
 const PIXEL_DATA: Tag = Tag(0x7FE0, 0x0010);
 const ITEM: Tag = Tag(0xFFFE, 0xE000);
@@ -70,22 +71,33 @@ pub(super) fn check(path: &Path, file: &[u8]) -> Result<()> {
 }
 
 /// Walks the file meta group (always explicit VR little endian, its decoder started at byte
-/// 132) of a file of `size` bytes. Returns where the data set starts and its transfer syntax's
-/// UID, or `None` where a header cannot be decoded.
+/// 132) of a file of `size` bytes as dicom-rs reads it: its group length first, then elements,
+/// of any group, until that many bytes are read. Returns where the data set starts and its
+/// transfer syntax's UID, or `None` where dicom-rs's reading fails too.
 fn walk_meta(
     path: &Path,
     size: u64,
     decoder: &mut impl StatefulDecode,
 ) -> Result<Option<(u64, String)>> {
+    let Ok(header) = decoder.decode_header() else {
+        return Ok(None);
+    };
+    if header.tag() != GROUP_LENGTH || header.length().get() != Some(4) {
+        return Ok(None);
+    }
+    let Some(group_length) = decoder
+        .read_value(&header)
+        .ok()
+        .and_then(|value| value.to_int::<u32>().ok())
+    else {
+        return Ok(None);
+    };
     let mut syntax = None;
-    loop {
-        let start = META_START + decoder.position();
+    let end = decoder.position().saturating_add(u64::from(group_length));
+    while decoder.position() < end {
         let Ok(header) = decoder.decode_header() else {
             return Ok(None);
         };
-        if header.tag().group() != 0x0002 {
-            return Ok(syntax.map(|uid| (start, uid)));
-        }
         let Some(length) = header.length().get() else {
             return Ok(None);
         };
@@ -100,6 +112,7 @@ fn walk_meta(
             return Ok(None);
         }
     }
+    Ok(syntax.map(|uid| (META_START + decoder.position(), uid)))
 }
 
 /// Walks a data set whose decoder counts positions in a stream of at most `size` bytes.
@@ -128,10 +141,32 @@ fn walk_data_set(path: &Path, size: u64, decoder: &mut impl StatefulDecode) -> R
         let Some(length) = length.get() else {
             return Ok(());
         };
+        whole_values(path, tag, header.vr(), length)?;
         fits(path, tag, length, size.saturating_sub(decoder.position()))?;
         if decoder.skip_bytes(length).is_err() {
             return Ok(());
         }
+    }
+    Ok(())
+}
+
+/// Refuses a binary value whose length is not a whole number of its VR's numbers: dicom-rs
+/// reads only the whole ones and takes the bytes left over for the next element's header (a
+/// fuzzed UL of 2 bytes made it read a header declaring 4,294,901,760 bytes).
+fn whole_values(path: &Path, tag: Tag, vr: VR, length: u32) -> Result<()> {
+    let size = match vr {
+        VR::US | VR::SS | VR::OW => 2,
+        VR::UL | VR::SL | VR::FL | VR::OF | VR::OL | VR::AT => 4,
+        VR::FD | VR::OD | VR::SV | VR::UV | VR::OV => 8,
+        _ => 1,
+    };
+    if length % size != 0 {
+        return Err(Error::format(format!(
+            "{}: element {tag} ({vr:?}) declares {length} bytes, not a whole number of its \
+             {size}-byte values; the file is corrupt: replace it with the scanner's file or \
+             remove it from the folder",
+            path.display()
+        )));
     }
     Ok(())
 }
@@ -184,9 +219,12 @@ mod tests {
         if uid.len() % 2 == 1 {
             uid.push(0);
         }
+        let syntax = element(TRANSFER_SYNTAX_UID, b"UI", uid.len() as u32, &uid);
         let mut out = vec![0; 128];
         out.extend(b"DICM");
-        out.extend(element(TRANSFER_SYNTAX_UID, b"UI", uid.len() as u32, &uid));
+        let group_length = (syntax.len() as u32).to_le_bytes();
+        out.extend(element(GROUP_LENGTH, b"UL", 4, &group_length));
+        out.extend(syntax);
         out.extend(data_set);
         out
     }
@@ -214,6 +252,7 @@ mod tests {
         // A meta group element that lies.
         let mut meta_lie = vec![0; 128];
         meta_lie.extend(b"DICM");
+        meta_lie.extend(element(GROUP_LENGTH, b"UL", 4, &12u32.to_le_bytes()));
         meta_lie.extend(element(TRANSFER_SYNTAX_UID, b"UI", 60_000, b"1.2"));
         assert!(checked(&meta_lie).is_err());
     }
@@ -263,6 +302,44 @@ mod tests {
         assert!(checked(&deflate(&thickness)).is_ok());
         let lying = element(SLICE_THICKNESS, b"OB", 3_000_000_000, b"");
         assert!(checked(&deflate(&lying)).is_err());
+    }
+
+    #[test]
+    fn regression_an_element_of_another_group_in_the_meta_group_hid_the_data_set() {
+        // dicom-rs reads the meta group by its group length, whatever groups the elements in
+        // it have; the walk took the first element of another group for the data set's start,
+        // found no transfer syntax before it and checked nothing (a fuzzed slice whose data
+        // set then declared 3,184,309,496 bytes).
+        let syntax = EXPLICIT_VR_LITTLE_ENDIAN.as_bytes();
+        let stray = element(Tag(0x7FFF, 0x0002), b"UI", 2, b"1\0");
+        let real = element(TRANSFER_SYNTAX_UID, b"UI", syntax.len() as u32, syntax);
+        let mut bytes = vec![0; 128];
+        bytes.extend(b"DICM");
+        let group_length = (stray.len() + real.len()) as u32;
+        bytes.extend(element(GROUP_LENGTH, b"UL", 4, &group_length.to_le_bytes()));
+        bytes.extend(stray);
+        bytes.extend(real);
+        bytes.extend(element(SLICE_THICKNESS, b"OB", 3_184_309_496, b""));
+        let error = checked(&bytes).unwrap_err();
+        assert!(
+            error.to_string().contains("(0018,0050) declares"),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn regression_a_two_byte_ul_put_dicom_rs_out_of_step() {
+        let mut data_set = element(Tag(0x0028, 0x0103), b"UL", 2, &[0, 0]);
+        data_set.extend(element(SLICE_THICKNESS, b"DS", 4, b"1.25"));
+        let error = checked(&file(EXPLICIT_VR_LITTLE_ENDIAN, &data_set)).unwrap_err();
+        assert!(
+            error
+                .to_string()
+                .contains("(0028,0103) (UL) declares 2 bytes"),
+            "{error}"
+        );
+        let whole = element(Tag(0x0028, 0x0103), b"UL", 4, &[0; 4]);
+        assert!(checked(&file(EXPLICIT_VR_LITTLE_ENDIAN, &whole)).is_ok());
     }
 
     #[test]
