@@ -7,7 +7,6 @@
 
 use std::path::Path;
 
-use balloonseg::evaluation::overlap_with_shape;
 use balloonseg::phantom::Angiogram;
 use balloonseg::{io, mesh_checks, Error, Result};
 
@@ -40,13 +39,7 @@ fn run() -> Result<()> {
     let angiogram = Angiogram::new(variant, dims)?;
     let mesh = io::read_mesh(Path::new(&mesh))?;
     let report = mesh_checks::check(&mesh);
-    let step = angiogram.geometry().min_spacing();
-    let overlap = overlap_with_shape(
-        &mesh,
-        |p| angiogram.truth(p),
-        angiogram.truth_bounds(),
-        step,
-    )?;
+    let overlap = angiogram.overlap(&mesh)?;
     println!(
         "{{\"dice\": {:.4}, \"covered\": {:.4}, \"valid\": {}, \"genus\": {}, \"truth_genus\": {}}}",
         overlap.dice(),

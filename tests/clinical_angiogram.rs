@@ -11,7 +11,6 @@
 //! variant gave 0.9694 then, and variants 0–3 give 0.986–0.992 since.
 
 use balloonseg::balloon::{BalloonParams, Segmenter};
-use balloonseg::evaluation::overlap_with_shape;
 use balloonseg::mesh_checks;
 use balloonseg::phantom::Angiogram;
 use balloonseg::self_intersection::self_intersections;
@@ -37,14 +36,7 @@ fn the_reduced_angiogram_gives_the_whole_tree_and_nothing_else() {
         assert!(report.is_valid_closed_surface(), "{number}: {report:?}");
         assert!(self_intersections(&mesh).unwrap().is_empty(), "{number}");
         assert_eq!(report.genus(), Some(0), "{number}: {report:?}");
-        let step = angiogram.geometry().min_spacing();
-        let overlap = overlap_with_shape(
-            &mesh,
-            |p| angiogram.truth(p),
-            angiogram.truth_bounds(),
-            step,
-        )
-        .unwrap();
+        let overlap = angiogram.overlap(&mesh).unwrap();
         assert!(
             overlap.dice() >= 0.97,
             "variant {number}: Dice {} (covered {})",

@@ -42,7 +42,9 @@ use super::scene::{Intensity, Layer, Scene};
 use super::sdf::{EllipticCylinder, HalfSpace, Intersection, Offset, RoundedCylinder, Sdf, Solid};
 use super::tube::{Path, Tubes};
 use crate::error::{Error, Result};
+use crate::evaluation::{overlap_with_shape, Overlap};
 use crate::geometry::Geometry;
+use crate::mesh::TriMesh;
 use crate::volume::{Image, ScalarType};
 
 const AIR: f64 = -1000.0;
@@ -186,6 +188,12 @@ impl Angiogram {
     /// The drawn parameters.
     pub fn describe(&self) -> &[Parameter] {
         &self.parameters
+    }
+
+    /// How `mesh` overlaps the analytic tree, sampled every smallest spacing of the grid.
+    pub fn overlap(&self, mesh: &TriMesh) -> Result<Overlap> {
+        let step = self.geometry().min_spacing();
+        overlap_with_shape(mesh, |p| self.truth(p), self.truth_bounds(), step)
     }
 }
 
