@@ -103,3 +103,27 @@ fn regression_a_two_byte_ul_put_dicom_rs_out_of_step_with_the_file() {
         "slice.dcm: element (0028,0103) (UL) declares 2 bytes, not a whole",
     );
 }
+
+#[test]
+fn regression_dicom_rs_allocated_the_segment_table_an_rle_header_declared() {
+    // Found by the `dicom` target: an RLE fragment whose header declares 822,083,586 segments
+    // where 16-bit pixels take two. dicom-rs 0.9's RLE decoder allocated a 3.3 GB table of
+    // segment offsets before it looked at them. RLE and JPEG headers are now checked against
+    // Rows, Columns and BitsAllocated before a codec sees them.
+    assert_refused(
+        "dicom-rle-822083586-segments",
+        "slice.dcm: its RLE header declares 822083586 segments where 16-bit",
+    );
+}
+
+#[test]
+fn regression_a_transfer_syntax_uid_under_another_vr_hid_a_declared_length_from_the_check() {
+    // Found by the `dicom` target: (0002,0010) with the VR SS. dicom-rs reads the transfer
+    // syntax's bytes as text whatever the VR (RLE lossless here); the check read numbers, knew
+    // no syntax and checked nothing, and dicom-rs allocated the 2,896,403,089 bytes that
+    // (0008,0000) declares. The check now reads the UID as dicom-rs does.
+    assert_refused(
+        "dicom-transfer-syntax-uid-as-ss",
+        "slice.dcm: element (0008,0000) declares 2896403089 bytes but only",
+    );
+}

@@ -1,6 +1,7 @@
 """DICOM series: the CLI's reader (src/io/dicom.rs) against SimpleITK's ImageSeriesReader on
 series these tests write with pydicom — axial, sagittal and oblique, 8-, 12- and 16-bit, signed
-and unsigned, with and without a rescale — and the errors a broken series gives.
+and unsigned, with and without a rescale, uncompressed, deflated, RLE and JPEG — and the errors a
+broken series gives.
 
 The CLI is $BALLOONSEG_CLI when set (a build in another target folder), else the one conftest
 finds. Its geometry comes from `balloonseg info DIR`, its voxels from `info DIR --write F.nrrd`.
@@ -8,9 +9,11 @@ finds. Its geometry comes from `balloonseg info DIR`, its voxels from `info DIR 
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import subprocess
+import tempfile
 import zlib
 from pathlib import Path
 
@@ -20,12 +23,16 @@ from conftest import CLI, assert_same_mesh, missing, read_vtp
 
 pydicom = pytest.importorskip("pydicom")
 sitk = pytest.importorskip("SimpleITK")
+Image = pytest.importorskip("PIL.Image")
 
 from pydicom.dataset import FileDataset, FileMetaDataset  # noqa: E402
+from pydicom.encaps import encapsulate  # noqa: E402
 from pydicom.uid import (  # noqa: E402
     CTImageStorage,
     DeflatedExplicitVRLittleEndian,
     ExplicitVRLittleEndian,
+    JPEGBaseline8Bit,
+    JPEGLosslessSV1,
     RLELossless,
     generate_uid,
 )
@@ -134,14 +141,37 @@ def write_series(
         if rescale is not None:
             d.RescaleIntercept, d.RescaleSlope = rescale
             d.RescaleType = "HU"
-        pixels = stored[k].astype(dtype[bits_allocated, signed])
-        if transfer_syntax == RLELossless:
-            d.compress(RLELossless, pixels)  # pydicom's own encoder
-        else:
-            d.PixelData = pixels.tobytes()
+        encode(d, stored[k].astype(dtype[bits_allocated, signed]), transfer_syntax)
         d.save_as(path, enforce_file_format=True)
         paths.append(path)
     return paths
+
+
+def encode(d: FileDataset, pixels: np.ndarray, transfer_syntax) -> None:
+    """Puts `pixels` (one slice) into `d` in `transfer_syntax`, each by another encoder than
+    the reader's: pydicom's RLE, GDCM's JPEG lossless (through SimpleITK) and Pillow's (libjpeg)
+    baseline JPEG."""
+    if transfer_syntax == RLELossless:
+        d.compress(RLELossless, pixels)
+    elif transfer_syntax == JPEGLosslessSV1:
+        with tempfile.TemporaryDirectory() as scratch:
+            writer = sitk.ImageFileWriter()
+            writer.SetImageIO("GDCMImageIO")
+            writer.SetFileName(f"{scratch}/slice.dcm")
+            writer.SetUseCompression(True)
+            writer.SetCompressor("JPEG")
+            writer.Execute(sitk.GetImageFromArray(pixels))
+            by_gdcm = pydicom.dcmread(f"{scratch}/slice.dcm")
+        assert by_gdcm.file_meta.TransferSyntaxUID == JPEGLosslessSV1
+        d.PixelData = by_gdcm.PixelData
+        d["PixelData"].VR = "OB"
+    elif transfer_syntax == JPEGBaseline8Bit:
+        stream = io.BytesIO()
+        Image.fromarray(pixels).save(stream, "JPEG", quality=90)
+        d.PixelData = encapsulate([stream.getvalue()])
+        d["PixelData"].VR = "OB"
+    else:
+        d.PixelData = pixels.tobytes()
 
 
 def sitk_series(folder: Path, uid: str | None = None):
@@ -182,6 +212,9 @@ CASES = {
     # transfer syntax]
     "axial-int16-hu": (AXIAL, 16, 16, True, ("-1024", "1")),
     "axial-int16-hu-rle": (AXIAL, 16, 16, True, ("-1024", "1"), RLELossless),
+    "axial-int16-hu-jpeg-lossless": (AXIAL, 16, 16, True, ("-1024", "1"), JPEGLosslessSV1),
+    "oblique-uint12-jpeg-lossless": (OBLIQUE, 16, 12, False, ("-1024", "1"), JPEGLosslessSV1),
+    "sagittal-int12-jpeg-lossless": (SAGITTAL, 16, 12, True, None, JPEGLosslessSV1),
     "sagittal-uint12-deflated": (SAGITTAL, 16, 12, False, ("-1024", "1"),
                                  DeflatedExplicitVRLittleEndian),
     "axial-uint12-hu": (AXIAL, 16, 12, False, ("-1024", "1")),
@@ -229,6 +262,39 @@ def test_geometry_and_voxels_equal_simpleitk(cli, tmp_path, name):
         "64-bit float": "float32",
     }
     assert names[itk_type] == ours == info["scalar_type"], (itk_type, info["scalar_type"])
+
+
+def test_baseline_jpeg_equals_simpleitk_within_the_rounding_of_two_idcts(cli, tmp_path):
+    # Lossy: the values are libjpeg's (Pillow) decoded, not the ones written, and jpeg-decoder's
+    # integer IDCT rounds otherwise than GDCM's libjpeg in a few pixels.
+    folder = tmp_path / "baseline"
+    k, j, i = np.mgrid[:5, :16, :16]
+    smooth = (40 + 5 * i + 4 * j + 3 * k).astype(np.uint8)
+    write_series(folder, smooth, orientation=OBLIQUE, bits_allocated=8, bits_stored=8,
+                 signed=False, transfer_syntax=JPEGBaseline8Bit)
+    expected = sitk_series(folder)
+    info, voxels = cli_read(cli, folder, tmp_path)
+    assert info["dims"] == list(expected.GetSize()) and info["scalar_type"] == "uint8"
+    np.testing.assert_allclose(info["direction"], expected.GetDirection(), atol=1e-6)
+    ours = sitk.GetArrayFromImage(voxels).astype(int)
+    theirs = sitk.GetArrayFromImage(expected).astype(int)
+    assert np.abs(ours - theirs).max() <= 1, np.abs(ours - theirs).max()
+    assert np.abs(ours - smooth).max() <= 4, np.abs(ours - smooth).max()
+
+
+def test_a_jpeg_frame_other_than_rows_and_columns_is_refused_naming_the_file(cli, tmp_path):
+    # jpeg-decoder allocates by the JPEG frame's size, so it must be the one the header bounds.
+    folder = tmp_path / "mismatch"
+    paths = write_series(folder, np.full((3, 16, 16), 90, np.uint8), bits_allocated=8,
+                         bits_stored=8, signed=False, transfer_syntax=JPEGBaseline8Bit)
+    for path in paths:
+        d = pydicom.dcmread(path)
+        d.Rows = 8
+        d.save_as(path)
+    done = run(cli, "info", folder, "--write", tmp_path / "never.nrrd")
+    assert done.returncode != 0 and not (tmp_path / "never.nrrd").exists()
+    assert ": its JPEG frame is 16×16 pixels of 1 components where Columns × Rows say 16×8" \
+        in done.stderr and str(folder) in done.stderr, done.stderr
 
 
 def test_a_folder_of_several_series_lists_them_and_series_chooses_one(cli, tmp_path):

@@ -24,6 +24,7 @@
 //! one pixel late. JPEG-LS and JPEG 2000 need C codecs that are not linked. An undecodable file
 //! is an error naming it and its transfer syntax.
 
+mod fragments;
 mod lengths;
 mod stack;
 
@@ -62,6 +63,16 @@ const RESCALE_INTERCEPT: Tag = Tag(0x0028, 0x1052);
 const RESCALE_SLOPE: Tag = Tag(0x0028, 0x1053);
 const PIXEL_DATA: Tag = Tag(0x7FE0, 0x0010);
 const RLE_LOSSLESS: &str = "1.2.840.10008.1.2.5";
+/// JPEG baseline, extended, lossless and lossless first-order: the syntaxes jpeg-decoder reads.
+const JPEG: [&str; 4] = [
+    "1.2.840.10008.1.2.4.50",
+    "1.2.840.10008.1.2.4.51",
+    "1.2.840.10008.1.2.4.57",
+    "1.2.840.10008.1.2.4.70",
+];
+/// No transfer syntax balloonseg decodes expands its bytes further than DEFLATE's 1032:1 (RLE
+/// at most 64:1; JPEG, whose smallest 8×8 block takes two bits, 512:1 for 16-bit samples).
+const MAX_EXPANSION: u64 = 1032;
 
 /// How the stored integers of a slice are laid out.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -197,7 +208,10 @@ fn corrupt(path: &Path, what: impl std::fmt::Display) -> Error {
 /// One file's header, read up to (not including) the pixel data, once every length the file
 /// declares is known to fit in it (`lengths`).
 fn header(path: &Path) -> Result<Slice> {
-    lengths::check(path, &files::read(path)?)?;
+    let file = files::read(path)?;
+    lengths::check(path, &file)?;
+    let file_bytes = file.len() as u64;
+    drop(file);
     let object = OpenFileOptions::new()
         .read_until(PIXEL_DATA)
         .open_file(path)
@@ -275,6 +289,18 @@ fn header(path: &Path) -> Result<Slice> {
     ];
     if size.contains(&0) {
         return Err(corrupt(path, "it has no pixels (Rows or Columns is 0)"));
+    }
+    // Bounds the series' voxel buffer, allocated before any slice is decoded, by the files.
+    let pixel_bytes = (size[0] * size[1]) as u64 * u64::from(bits_allocated / 8);
+    if pixel_bytes > file_bytes.saturating_mul(MAX_EXPANSION) {
+        return Err(corrupt(
+            path,
+            format!(
+                "its {}×{} pixels of {bits_allocated} bits take {pixel_bytes} bytes, more than \
+                 any transfer syntax packs into a file of {file_bytes} bytes",
+                size[0], size[1]
+            ),
+        ));
     }
     Ok(Slice {
         path: path.to_path_buf(),
@@ -504,6 +530,36 @@ fn voxels<T: Copy + Default + Send>(
     Ok(data)
 }
 
+/// Checks the compressed fragments of an RLE or JPEG slice against its header before a codec
+/// allocates by what they declare (see [`fragments`]).
+fn check_fragments(
+    slice: &Slice,
+    object: &dicom_object::DefaultDicomObject,
+    syntax: &str,
+) -> Result<()> {
+    let Some(fragments) = object
+        .element_opt(PIXEL_DATA)
+        .ok()
+        .flatten()
+        .and_then(|element| element.value().fragments())
+    else {
+        return Ok(());
+    };
+    let frame = fragments::Frame {
+        path: &slice.path,
+        columns: slice.size[0],
+        rows: slice.size[1],
+        bits_allocated: slice.format.bits_allocated,
+    };
+    if syntax == RLE_LOSSLESS {
+        frame.check_rle(fragments)
+    } else if JPEG.contains(&syntax) {
+        frame.check_jpeg(fragments)
+    } else {
+        Ok(())
+    }
+}
+
 /// Decodes one file's pixels into `out` (one plane, i fastest).
 fn decode_slice<T>(slice: &Slice, out: &mut [T], convert: &impl Fn(f64) -> T) -> Result<()> {
     let path = &slice.path;
@@ -525,6 +581,7 @@ fn decode_slice<T>(slice: &Slice, out: &mut [T], convert: &impl Fn(f64) -> T) ->
             "8-bit RLE, which dicom-rs 0.9 decodes wrongly".into(),
         ));
     }
+    check_fragments(slice, &object, syntax)?;
     // The codecs index their input without checking it everywhere: a corrupt file must be an
     // error, never a crash.
     let decoded =
@@ -629,6 +686,23 @@ mod tests {
         voxels.extend([-1024; 6]);
         // Signed 16-bit with an intercept: int32, as GDCM chooses.
         assert_eq!(image.buffer(), &VoxelBuffer::I32(voxels));
+    }
+
+    #[test]
+    fn a_slice_declaring_more_pixels_than_its_file_can_hold_is_refused_before_any_allocation() {
+        let dir = scratch_dir();
+        let mut file = slice_file(0.0, &[0; 6]);
+        for (element, value) in [(0x10u8, 2u8), (0x11, 3)] {
+            let header = [0x28, 0, element, 0, b'U', b'S', 2, 0, value, 0];
+            let at = file.windows(10).position(|w| w == header).unwrap();
+            file[at + 8..at + 10].copy_from_slice(&[0xFF, 0xFF]);
+        }
+        std::fs::write(dir.path().join("slice.dcm"), &file).unwrap();
+        let refused = read(dir.path(), None).unwrap_err().to_string();
+        assert!(
+            refused.contains("65535×65535 pixels of 16 bits take 8589672450 bytes, more than"),
+            "{refused}"
+        );
     }
 
     #[test]

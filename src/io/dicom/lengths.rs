@@ -4,25 +4,27 @@
 //! 2.8 GB (found by the `dicom` fuzz target; GDCM had the same flaw, CVE-2026-3650). A length
 //! no file of this size can hold is refused here, naming the element.
 //!
-//! The walk reads only element headers, with dicom-rs's own decoder for the transfer syntax, and
-//! skips each value; it enters sequences and items, whose elements follow their headers, and
-//! takes an encapsulated pixel data element's items as the fragments they are. A header it
-//! cannot decode ends the walk: dicom-rs stops at the same header with its own error, before
-//! allocating anything for it. A deflated data set is walked through its inflater, and its
-//! lengths are bounded by what DEFLATE can expand the file's remaining bytes to.
+//! The walk reads the data set with dicom-rs's lazy reader, the same state machine as the reader
+//! that builds the object, which gives each value's header before its bytes: the value is
+//! checked, then skipped. A token it cannot read ends the walk: dicom-rs stops at the same
+//! token with its own error, before allocating anything for it. A deflated data set is walked
+//! through its inflater, and its lengths are bounded by what DEFLATE can expand the file's
+//! remaining bytes to.
 //!
-//! The walk must read the file as dicom-rs does, or dicom-rs reads headers the walk never saw:
-//! the meta group is read by its group length whatever groups its elements have, and a binary
-//! value must be a whole number of its VR's numbers (dicom-rs reads the whole ones and takes
-//! the rest for the next header). The fuzz target still finds ways in within seconds (an RLE
-//! segment offset the pixel decoder allocates by: docs/fuzzing.md); this is a guard, not a
-//! proof.
+//! Where the walk reads the file otherwise than dicom-rs, dicom-rs reads headers the walk never
+//! saw; three such places were found by fuzzing and are mirrored here: the meta group is read
+//! by its group length whatever groups its elements have, the transfer syntax UID is read as
+//! text whatever its VR, and a binary value must be a whole number of its VR's numbers
+//! (dicom-rs reads the whole ones and takes the rest for the next header). The sizes inside
+//! compressed pixel data are the codecs' to trust, and [`super::fragments`] checks them.
 
 use std::path::Path;
 
 use dicom_core::header::{HasLength, Header};
 use dicom_core::{Tag, VR};
 use dicom_encoding::transfer_syntax::{Codec, TransferSyntaxIndex};
+use dicom_parser::dataset::lazy_read::LazyDataSetReader;
+use dicom_parser::dataset::LazyDataToken;
 use dicom_parser::stateful::decode::{StatefulDecode, StatefulDecoder};
 use dicom_transfer_syntax_registry::TransferSyntaxRegistry;
 
@@ -36,9 +38,7 @@ const MAX_DEFLATE_RATIO: u64 = 1032;
 const EXPLICIT_VR_LITTLE_ENDIAN: &str = "1.2.840.10008.1.2.1";
 const GROUP_LENGTH: Tag = Tag(0x0002, 0x0000);
 const TRANSFER_SYNTAX_UID: Tag = Tag(0x0002, 0x0010);
-const PIXEL_DATA: Tag = Tag(0x7FE0, 0x0010);
 const ITEM: Tag = Tag(0xFFFE, 0xE000);
-const SEQUENCE_DELIMITER: Tag = Tag(0xFFFE, 0xE0DD);
 
 /// Checks every value length in `file` (the bytes of the DICOM file at `path`) against the bytes
 /// that follow it; an error names the first that cannot fit.
@@ -52,11 +52,11 @@ pub(super) fn check(path: &Path, file: &[u8]) -> Result<()> {
     let Ok(mut meta_decoder) = StatefulDecoder::new_with_ts(meta, explicit, 0) else {
         return Ok(());
     };
-    let Some((data_set_start, syntax)) = walk_meta(path, file.len() as u64, &mut meta_decoder)?
-    else {
+    let Some((data_set_start, syntax)) = walk_meta(path, file, &mut meta_decoder)? else {
         return Ok(());
     };
-    let Some(syntax) = TransferSyntaxRegistry.get(syntax.trim_end_matches(['\0', ' '])) else {
+    let syntax = syntax.trim_end_matches(|c: char| c.is_whitespace() || c == '\0');
+    let Some(syntax) = TransferSyntaxRegistry.get(syntax) else {
         return Ok(());
     };
     let rest = &file[data_set_start as usize..];
@@ -65,27 +65,28 @@ pub(super) fn check(path: &Path, file: &[u8]) -> Result<()> {
             let inflated = adapter.adapt_reader(Box::new(rest));
             let bound = (rest.len() as u64).saturating_mul(MAX_DEFLATE_RATIO);
             match StatefulDecoder::new_with_ts(inflated, syntax, 0) {
-                Ok(mut decoder) => walk_data_set(path, bound, &mut decoder),
+                Ok(decoder) => walk_data_set(path, bound, decoder),
                 Err(_) => Ok(()),
             }
         }
         Codec::Dataset(None) => Ok(()),
         _ => match StatefulDecoder::new_with_ts(rest, syntax, data_set_start) {
-            Ok(mut decoder) => walk_data_set(path, file.len() as u64, &mut decoder),
+            Ok(decoder) => walk_data_set(path, file.len() as u64, decoder),
             Err(_) => Ok(()),
         },
     }
 }
 
 /// Walks the file meta group (always explicit VR little endian, its decoder started at byte
-/// 132) of a file of `size` bytes as dicom-rs reads it: its group length first, then elements,
+/// 132) of `file` as dicom-rs reads it: its group length first, then elements,
 /// of any group, until that many bytes are read. Returns where the data set starts and its
 /// transfer syntax's UID, or `None` where dicom-rs's reading fails too.
 fn walk_meta(
     path: &Path,
-    size: u64,
+    file: &[u8],
     decoder: &mut impl StatefulDecode,
 ) -> Result<Option<(u64, String)>> {
+    let size = file.len() as u64;
     let Ok(header) = decoder.decode_header() else {
         return Ok(None);
     };
@@ -111,44 +112,40 @@ fn walk_meta(
         let remaining = size.saturating_sub(META_START + decoder.position());
         fits(path, header.tag(), length, remaining)?;
         if header.tag() == TRANSFER_SYNTAX_UID {
-            let Ok(value) = decoder.read_value(&header) else {
+            // dicom-rs reads this value's bytes as text whatever VR the header gives it.
+            let start = (META_START + decoder.position()) as usize;
+            let Some(value) = file.get(start..start + length as usize) else {
                 return Ok(None);
             };
-            syntax = Some(value.to_str().into_owned());
-        } else if decoder.skip_bytes(length).is_err() {
+            syntax = Some(String::from_utf8_lossy(value).into_owned());
+        }
+        if decoder.skip_bytes(length).is_err() {
             return Ok(None);
         }
     }
     Ok(syntax.map(|uid| (META_START + decoder.position(), uid)))
 }
 
-/// Walks a data set whose decoder counts positions in a stream of at most `size` bytes.
-fn walk_data_set(path: &Path, size: u64, decoder: &mut impl StatefulDecode) -> Result<()> {
-    // Inside an encapsulated pixel data element, whose items are fragments of bytes.
-    let mut fragments = false;
-    while let Ok(header) = decoder.decode_header() {
-        let (tag, length) = (header.tag(), header.length());
-        let opens_sequence_or_item = match tag {
-            SEQUENCE_DELIMITER => {
-                fragments = false;
-                true
+/// Walks a data set whose decoder counts positions in a stream of at most `size` bytes, token by
+/// token with dicom-rs's lazy reader: the same state machine as the reader that builds the
+/// object (sequences and items of defined and undefined length, any undefined-length element
+/// taken for a sequence, encapsulated pixel data's items for fragments), which yields each
+/// value's header before its bytes, so that the value can be checked and skipped.
+fn walk_data_set(path: &Path, size: u64, decoder: impl StatefulDecode) -> Result<()> {
+    let mut reader = LazyDataSetReader::new(decoder);
+    // A token dicom-rs cannot read ends its reading with an error at the same place.
+    while let Some(Ok(token)) = reader.advance() {
+        let (tag, vr, length, decoder) = match token {
+            LazyDataToken::LazyValue { header, decoder } => {
+                let Some(length) = header.length().get() else {
+                    return Ok(());
+                };
+                (header.tag(), header.vr(), length, decoder)
             }
-            ITEM => !fragments,
-            _ if tag.group() == 0xFFFE => true,
-            PIXEL_DATA if length.is_undefined() => {
-                fragments = true;
-                true
-            }
-            // An undefined length UN is a sequence in implicit VR.
-            _ => header.vr() == VR::SQ || (length.is_undefined() && header.vr() == VR::UN),
+            LazyDataToken::LazyItemValue { len, decoder } => (ITEM, VR::OB, len, decoder),
+            _ => continue,
         };
-        if opens_sequence_or_item {
-            continue;
-        }
-        let Some(length) = length.get() else {
-            return Ok(());
-        };
-        whole_values(path, tag, header.vr(), length)?;
+        whole_values(path, tag, vr, length)?;
         fits(path, tag, length, size.saturating_sub(decoder.position()))?;
         if decoder.skip_bytes(length).is_err() {
             return Ok(());
@@ -241,6 +238,8 @@ mod tests {
     }
 
     const UNDEFINED: u32 = u32::MAX;
+    const PIXEL_DATA: Tag = Tag(0x7FE0, 0x0010);
+    const SEQUENCE_DELIMITER: Tag = Tag(0xFFFE, 0xE0DD);
     const SLICE_THICKNESS: Tag = Tag(0x0018, 0x0050);
     const REFERENCED_IMAGES: Tag = Tag(0x0008, 0x1140);
 
@@ -347,6 +346,30 @@ mod tests {
         );
         let whole = element(Tag(0x0028, 0x0103), b"UL", 4, &[0; 4]);
         assert!(checked(&file(EXPLICIT_VR_LITTLE_ENDIAN, &whole)).is_ok());
+    }
+
+    #[test]
+    fn regression_a_transfer_syntax_uid_under_another_vr_hid_the_data_set() {
+        // A fuzzed slice gave (0002,0010) the VR SS: the walk read its value as numbers, found
+        // no transfer syntax and checked nothing, while dicom-rs reads the bytes as text (RLE
+        // lossless) and then allocated the 2,896,403,089 bytes an element declared.
+        let syntax = b"1.2.840.10008.1.2.5\0";
+        let odd = element(TRANSFER_SYNTAX_UID, b"SS", syntax.len() as u32, syntax);
+        let mut bytes = vec![0; 128];
+        bytes.extend(b"DICM");
+        bytes.extend(element(
+            GROUP_LENGTH,
+            b"UL",
+            4,
+            &(odd.len() as u32).to_le_bytes(),
+        ));
+        bytes.extend(odd);
+        bytes.extend(element(SLICE_THICKNESS, b"OB", 2_896_403_089, b""));
+        let error = checked(&bytes).unwrap_err();
+        assert!(
+            error.to_string().contains("(0018,0050) declares"),
+            "{error}"
+        );
     }
 
     #[test]
