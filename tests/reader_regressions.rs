@@ -127,3 +127,26 @@ fn regression_a_transfer_syntax_uid_under_another_vr_hid_a_declared_length_from_
         "slice.dcm: element (0008,0000) declares 2896403089 bytes but only",
     );
 }
+
+#[test]
+fn regression_a_meta_group_length_under_another_vr_hid_a_declared_length_from_the_check() {
+    // Found by the `dicom` target: (0002,0000) with the VR FD. dicom-rs reads its 4 bytes as a
+    // u32 whatever the VR; the check read no number, checked nothing, and dicom-rs allocated
+    // the 2,147,811,328 bytes a later header declared.
+    assert_refused(
+        "dicom-meta-group-length-as-fd",
+        "slice.dcm: element (0000,0000) declares 2147811328 bytes but only",
+    );
+}
+
+#[test]
+fn regression_a_transfer_syntax_uid_ending_in_latin_1_whitespace_hid_a_declared_length() {
+    // Found by the `dicom` target: the UID "1.2.840.10008.1.2" followed by the byte 0x85.
+    // dicom-rs decodes it as ISO 8859-1, where 0x85 is NEL, a whitespace it trims, and reads
+    // implicit VR little endian; the check decoded UTF-8, knew no such syntax and checked
+    // nothing, and dicom-rs allocated the 4,143,979,008 bytes an element declared.
+    assert_refused(
+        "dicom-transfer-syntax-uid-latin-1-whitespace",
+        "slice.dcm: element (0820,1600) declares 4143979008 bytes but only",
+    );
+}

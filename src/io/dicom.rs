@@ -39,6 +39,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::files;
+use super::progress::{self, ReadStage};
 use crate::allocation;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
@@ -151,7 +152,9 @@ fn headers(folder: &Path) -> Result<Vec<Slice>> {
     }
     paths.sort();
     let mut slices = Vec::new();
-    for path in paths {
+    let files = paths.len();
+    for (n, path) in paths.into_iter().enumerate() {
+        progress::report(n as f64 / files as f64, ReadStage::Reading)?;
         if has_dicom_mark(&path)? {
             slices.push(header(&path)?);
         } else if path
@@ -514,19 +517,34 @@ fn output_type(slices: &[&Slice]) -> ScalarType {
 }
 
 /// Every slice's rescaled values, slice after slice, converted by `convert` (which the choice of
-/// type keeps in range). Slices are decoded in parallel.
+/// type keeps in range).
 fn voxels<T: Copy + Default + Send>(
     slices: &[&Slice],
     convert: impl Fn(f64) -> T + Sync,
 ) -> Result<Vec<T>> {
     let plane = slices[0].size[0] * slices[0].size[1];
-    let total = plane.checked_mul(slices.len()).ok_or_else(|| {
+    let total_slices = slices.len();
+    let total = plane.checked_mul(total_slices).ok_or_else(|| {
         Error::invalid_volume("the series has more voxels than this machine can address")
     })?;
     let mut data = allocation::filled(total, T::default(), "the series' voxels")?;
-    data.par_chunks_mut(plane)
-        .zip(slices.par_iter())
-        .try_for_each(|(out, slice)| decode_slice(slice, out, &convert))?;
+    // Decoded in parallel a batch at a time, so that progress is reported (on this thread)
+    // between batches.
+    let batch = 4 * rayon::current_num_threads();
+    for (n, (planes, slices)) in data
+        .chunks_mut(plane * batch)
+        .zip(slices.chunks(batch))
+        .enumerate()
+    {
+        progress::report(
+            (n * batch) as f64 / total_slices as f64,
+            ReadStage::Decoding,
+        )?;
+        planes
+            .par_chunks_mut(plane)
+            .zip(slices.par_iter())
+            .try_for_each(|(out, slice)| decode_slice(slice, out, &convert))?;
+    }
     Ok(data)
 }
 
@@ -686,6 +704,26 @@ mod tests {
         voxels.extend([-1024; 6]);
         // Signed 16-bit with an intercept: int32, as GDCM chooses.
         assert_eq!(image.buffer(), &VoxelBuffer::I32(voxels));
+    }
+
+    #[test]
+    fn a_series_reports_its_files_read_and_its_slices_decoded() {
+        let dir = scratch_dir();
+        for k in 0..5 {
+            let name = dir.path().join(format!("{k}.dcm"));
+            std::fs::write(name, slice_file(2.0 * k as f64, &[k as i16; 6])).unwrap();
+        }
+        let (progress, seen) = crate::io::progress::tests::recorder();
+        let image = crate::io::read_image_reporting(dir.path(), None, progress).unwrap();
+        assert_eq!(image.dims(), [3, 2, 5]);
+        let seen = seen.lock().unwrap();
+        let reading: Vec<f64> = seen
+            .iter()
+            .filter(|(_, s)| *s == ReadStage::Reading)
+            .map(|(f, _)| *f)
+            .collect();
+        assert_eq!(reading, [0.0, 0.2, 0.4, 0.6, 0.8]);
+        assert!(seen.iter().any(|(_, s)| *s == ReadStage::Decoding));
     }
 
     #[test]

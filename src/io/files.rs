@@ -4,15 +4,37 @@
 //! and it lets every count in a header be checked against the bytes that really follow.
 
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::{BufWriter, Read, Write};
 use std::path::Path;
 
+use super::progress::{self, ReadStage};
+use crate::allocation;
 use crate::error::{Error, Result};
 
-/// The whole content of `path`.
+/// Bytes read per call, and between two progress reports.
+const CHUNK: u64 = 8 << 20;
+
+/// The whole content of `path`. A file larger than one chunk reports its reading to the
+/// [`progress`] sink, chunk by chunk, and may be cancelled there.
 pub(crate) fn read(path: &Path) -> Result<Vec<u8>> {
-    std::fs::read(path)
-        .map_err(|e| Error::io(format!("{}: cannot read the file: {e}", path.display())))
+    let failed =
+        |e: std::io::Error| Error::io(format!("{}: cannot read the file: {e}", path.display()));
+    let mut file = File::open(path).map_err(failed)?;
+    let size = file.metadata().map_err(failed)?.len();
+    let capacity = usize::try_from(size).unwrap_or(usize::MAX);
+    let mut bytes = allocation::with_capacity(capacity, "the file's bytes")?;
+    loop {
+        let read = (&mut file)
+            .take(CHUNK)
+            .read_to_end(&mut bytes)
+            .map_err(failed)?;
+        if read == 0 {
+            return Ok(bytes);
+        }
+        if size > CHUNK {
+            progress::report(bytes.len() as f64 / size as f64, ReadStage::Reading)?;
+        }
+    }
 }
 
 /// Creates (or truncates) `path` and fills it through a buffered writer.

@@ -11,6 +11,7 @@ mod compression;
 pub(crate) mod files;
 mod point_data;
 mod polygons;
+mod progress;
 mod scan;
 #[cfg(test)]
 mod test_images;
@@ -35,6 +36,7 @@ use std::path::Path;
 
 use crate::{Error, Image, Result, TriMesh};
 pub use point_data::{CellData, PointData, PointValues};
+pub use progress::{ReadProgress, ReadStage};
 
 /// The volume extensions [`read_image`] understands.
 pub const IMAGE_READ_FORMATS: &str =
@@ -92,6 +94,17 @@ pub fn read_image_series(path: &Path, series: Option<&str>) -> Result<Image> {
         "vtk" => vtk_legacy::read_image(path),
         _ => Err(unsupported(path, "volume", IMAGE_READ_FORMATS)),
     }
+}
+
+/// [`read_image_series`], telling `progress` how far the read has come, stage by stage
+/// (reading the file, inflating it, decoding a DICOM series); it may cancel the read, which
+/// then ends with an error of kind `Cancelled`. The read reports on the calling thread.
+pub fn read_image_reporting(
+    path: &Path,
+    series: Option<&str>,
+    progress: ReadProgress,
+) -> Result<Image> {
+    progress::reporting(progress, || read_image_series(path, series))
 }
 
 /// Writes a volume; the format follows the extension.

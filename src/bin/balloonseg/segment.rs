@@ -167,13 +167,19 @@ pub fn segment(
 ) -> Result<Vec<SegmentedObject>> {
     let start = Instant::now();
     let per_object = args.output.to_string_lossy().contains(LABEL_PLACEHOLDER);
-    let image = io::read_image_series(&args.input, args.series.as_deref())?;
+    let drawn = progress.is_some();
+    let series = args.series.as_deref();
+    let image = if drawn {
+        let bar = |fraction, stage: io::ReadStage| draw_bar(fraction, stage.name());
+        io::read_image_reporting(&args.input, series, Box::new(bar))?
+    } else {
+        io::read_image_series(&args.input, series)?
+    };
     let geometry = *image.geometry();
     let request = args.request(&geometry)?;
     if request.objects.len() > 1 && !per_object {
         io::check_holds_cell_data(&args.output, "object")?;
     }
-    let drawn = progress.is_some();
     let params = args.params.params(threads)?;
     let max_iterations = params.max_iterations;
     let result = segment_objects(image.view(), params, &request, progress);
@@ -317,6 +323,11 @@ fn write_meshes(
 }
 
 fn draw_progress(fraction: f64, phase: Phase) -> bool {
+    draw_bar(fraction, phase.name())
+}
+
+/// Redraws the bar on standard error's line: `fraction` done of the stage `name`.
+fn draw_bar(fraction: f64, name: &str) -> bool {
     let width = 30;
     let filled = (fraction * width as f64).round() as usize;
     let mut err = std::io::stderr();
@@ -326,7 +337,7 @@ fn draw_progress(fraction: f64, phase: Phase) -> bool {
         "#".repeat(filled),
         " ".repeat(width - filled),
         fraction * 100.0,
-        phase.name()
+        name
     );
     let _ = err.flush();
     true

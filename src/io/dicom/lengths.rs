@@ -12,9 +12,9 @@
 //! remaining bytes to.
 //!
 //! Where the walk reads the file otherwise than dicom-rs, dicom-rs reads headers the walk never
-//! saw; three such places were found by fuzzing and are mirrored here: the meta group is read
-//! by its group length whatever groups its elements have, the transfer syntax UID is read as
-//! text whatever its VR, and a binary value must be a whole number of its VR's numbers
+//! saw; four such places were found by fuzzing and are mirrored here: the meta group is read
+//! by its group length whatever groups its elements have, that length is read as a u32 and the
+//! transfer syntax UID as ISO 8859-1 text whatever their VRs, and a binary value must be a whole number of its VR's numbers
 //! (dicom-rs reads the whole ones and takes the rest for the next header). The sizes inside
 //! compressed pixel data are the codecs' to trust, and [`super::fragments`] checks them.
 
@@ -22,6 +22,7 @@ use std::path::Path;
 
 use dicom_core::header::{HasLength, Header};
 use dicom_core::{Tag, VR};
+use dicom_encoding::text::{DefaultCharacterSetCodec, TextCodec};
 use dicom_encoding::transfer_syntax::{Codec, TransferSyntaxIndex};
 use dicom_parser::dataset::lazy_read::LazyDataSetReader;
 use dicom_parser::dataset::LazyDataToken;
@@ -93,13 +94,15 @@ fn walk_meta(
     if header.tag() != GROUP_LENGTH || header.length().get() != Some(4) {
         return Ok(None);
     }
-    let Some(group_length) = decoder
-        .read_value(&header)
-        .ok()
-        .and_then(|value| value.to_int::<u32>().ok())
+    // dicom-rs reads the group length as a little-endian u32 whatever VR the header gives it.
+    let Some(group_length) = value_bytes(file, decoder.position(), 4)
+        .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     else {
         return Ok(None);
     };
+    if decoder.skip_bytes(4).is_err() {
+        return Ok(None);
+    }
     let mut syntax = None;
     let end = decoder.position().saturating_add(u64::from(group_length));
     while decoder.position() < end {
@@ -112,18 +115,27 @@ fn walk_meta(
         let remaining = size.saturating_sub(META_START + decoder.position());
         fits(path, header.tag(), length, remaining)?;
         if header.tag() == TRANSFER_SYNTAX_UID {
-            // dicom-rs reads this value's bytes as text whatever VR the header gives it.
-            let start = (META_START + decoder.position()) as usize;
-            let Some(value) = file.get(start..start + length as usize) else {
+            // dicom-rs reads this value's bytes as text (ISO 8859-1, whose 0x85 is a
+            // whitespace it trims) whatever VR the header gives it.
+            let Some(value) = value_bytes(file, decoder.position(), length) else {
                 return Ok(None);
             };
-            syntax = Some(String::from_utf8_lossy(value).into_owned());
+            let Ok(text) = DefaultCharacterSetCodec.decode(value) else {
+                return Ok(None);
+            };
+            syntax = Some(text);
         }
         if decoder.skip_bytes(length).is_err() {
             return Ok(None);
         }
     }
     Ok(syntax.map(|uid| (META_START + decoder.position(), uid)))
+}
+
+/// The `length` bytes of a meta group value that starts `position` bytes after byte 132.
+fn value_bytes(file: &[u8], position: u64, length: u32) -> Option<&[u8]> {
+    let start = usize::try_from(META_START + position).ok()?;
+    file.get(start..start.checked_add(length as usize)?)
 }
 
 /// Walks a data set whose decoder counts positions in a stream of at most `size` bytes, token by
@@ -368,6 +380,54 @@ mod tests {
         let error = checked(&bytes).unwrap_err();
         assert!(
             error.to_string().contains("(0018,0050) declares"),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn regression_a_meta_group_length_under_another_vr_hid_the_data_set() {
+        // A fuzzed slice gave (0002,0000) the VR FD: the walk read no number from its 4 bytes
+        // and checked nothing, while dicom-rs reads them as a u32 whatever the VR.
+        let syntax = element(TRANSFER_SYNTAX_UID, b"UI", 20, b"1.2.840.10008.1.2.5\0");
+        let mut bytes = vec![0; 128];
+        bytes.extend(b"DICM");
+        bytes.extend(element(
+            GROUP_LENGTH,
+            b"FD",
+            4,
+            &(syntax.len() as u32).to_le_bytes(),
+        ));
+        bytes.extend(syntax);
+        bytes.extend(element(SLICE_THICKNESS, b"OB", 2_147_811_328, b""));
+        let error = checked(&bytes).unwrap_err();
+        assert!(
+            error.to_string().contains("(0018,0050) declares"),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn regression_a_transfer_syntax_uid_ending_in_latin_1_whitespace_hid_the_data_set() {
+        // A fuzzed slice's UID ended in the byte 0x85: the walk decoded it as UTF-8, knew no
+        // such syntax and checked nothing; dicom-rs decodes ISO 8859-1, where 0x85 is NEL, a
+        // whitespace it trims, and read the data set as implicit VR little endian.
+        let syntax = element(TRANSFER_SYNTAX_UID, b"UI", 18, b"1.2.840.10008.1.2\x85");
+        let mut bytes = vec![0; 128];
+        bytes.extend(b"DICM");
+        bytes.extend(element(
+            GROUP_LENGTH,
+            b"UL",
+            4,
+            &(syntax.len() as u32).to_le_bytes(),
+        ));
+        bytes.extend(syntax);
+        bytes.extend([0x18, 0, 0x50, 0]);
+        bytes.extend(4_143_979_008u32.to_le_bytes());
+        let error = checked(&bytes).unwrap_err();
+        assert!(
+            error
+                .to_string()
+                .contains("(0018,0050) declares 4143979008"),
             "{error}"
         );
     }
