@@ -7,11 +7,13 @@
 //! convention (VTK, ITK), but any stride order works. Algorithms that need typed access use
 //! [`Volume::dispatch`] with a [`VoxelVisitor`], which monomorphises them per scalar type.
 
+use std::io::Read;
 use std::marker::PhantomData;
 use std::ptr::NonNull;
 
 use glam::DVec3;
 
+use crate::allocation;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 
@@ -498,32 +500,66 @@ impl VoxelBuffer {
                 scalar_type.name()
             )));
         }
-        macro_rules! decode {
-            ($t:ty, $variant:ident) => {
-                VoxelBuffer::$variant(
-                    bytes
-                        .chunks_exact(size)
-                        .map(|c| {
-                            let a = c.try_into().expect("chunk has the element size");
-                            if little_endian {
-                                <$t>::from_le_bytes(a)
-                            } else {
-                                <$t>::from_be_bytes(a)
-                            }
-                        })
-                        .collect(),
+        Self::read_from(
+            scalar_type,
+            bytes.len() / size,
+            little_endian,
+            &mut &bytes[..],
+        )
+    }
+
+    /// Reads exactly `count` voxels of `scalar_type`, little- or big-endian, from `source` a
+    /// chunk at a time: a reader streams a file (or its inflater) into the buffer, holding no
+    /// more than the voxels and one chunk. The buffer is allocated fallibly.
+    pub(crate) fn read_from(
+        scalar_type: ScalarType,
+        count: usize,
+        little_endian: bool,
+        source: &mut impl Read,
+    ) -> Result<Self> {
+        const CHUNK_BYTES: usize = 1 << 20;
+        let size = scalar_type.size_in_bytes();
+        let total = count.checked_mul(size).ok_or_else(|| {
+            Error::invalid_volume(format!("{count} voxels are more than memory can address"))
+        })?;
+        let mut chunk = vec![0u8; total.min(CHUNK_BYTES / size * size)];
+        let failed = |e: std::io::Error| {
+            Error::format(if e.kind() == std::io::ErrorKind::UnexpectedEof {
+                format!(
+                    "the voxel data ends within the {total} bytes the header's sizes and type \
+                     need: the file is truncated or its header is wrong"
                 )
-            };
+            } else {
+                format!("cannot read the voxel data ({e})")
+            })
+        };
+        macro_rules! fill {
+            ($t:ty, $variant:ident) => {{
+                let mut voxels: Vec<$t> = allocation::with_capacity(count, "the voxels")?;
+                while voxels.len() < count {
+                    let n = ((count - voxels.len()) * size).min(chunk.len());
+                    source.read_exact(&mut chunk[..n]).map_err(failed)?;
+                    voxels.extend(chunk[..n].chunks_exact(size).map(|c| {
+                        let bytes = c.try_into().expect("chunks have the element size");
+                        if little_endian {
+                            <$t>::from_le_bytes(bytes)
+                        } else {
+                            <$t>::from_be_bytes(bytes)
+                        }
+                    }));
+                }
+                VoxelBuffer::$variant(voxels)
+            }};
         }
         Ok(match scalar_type {
-            ScalarType::U8 => decode!(u8, U8),
-            ScalarType::I8 => decode!(i8, I8),
-            ScalarType::U16 => decode!(u16, U16),
-            ScalarType::I16 => decode!(i16, I16),
-            ScalarType::U32 => decode!(u32, U32),
-            ScalarType::I32 => decode!(i32, I32),
-            ScalarType::F32 => decode!(f32, F32),
-            ScalarType::F64 => decode!(f64, F64),
+            ScalarType::U8 => fill!(u8, U8),
+            ScalarType::I8 => fill!(i8, I8),
+            ScalarType::U16 => fill!(u16, U16),
+            ScalarType::I16 => fill!(i16, I16),
+            ScalarType::U32 => fill!(u32, U32),
+            ScalarType::I32 => fill!(i32, I32),
+            ScalarType::F32 => fill!(f32, F32),
+            ScalarType::F64 => fill!(f64, F64),
         })
     }
 

@@ -9,7 +9,7 @@ use flate2::read::{MultiGzDecoder, ZlibDecoder};
 use flate2::write::{GzEncoder, ZlibEncoder};
 use flate2::Compression;
 
-use super::progress::{self, ReadStage};
+use super::progress::{ReadStage, Reported};
 use crate::error::{Error, Result};
 
 /// DEFLATE expands at most about 1032:1 (a 258-byte match coded in two bits).
@@ -22,8 +22,6 @@ const LEVEL: Compression = Compression::fast();
 /// Up-front allocation relative to the compressed size; past it the output grows only as
 /// decompressed bytes really arrive.
 const PREALLOCATE_RATIO: usize = 16;
-/// Compressed bytes between two progress reports.
-const REPORT_EVERY: usize = 1 << 20;
 
 /// Refuses `expected` decompressed bytes from `compressed_len` bytes when DEFLATE cannot do it.
 pub(crate) fn check_ratio(compressed_len: usize, expected: usize) -> Result<()> {
@@ -43,14 +41,14 @@ pub(crate) fn check_ratio(compressed_len: usize, expected: usize) -> Result<()> 
 /// as MetaIO does); fewer when the stream ends first.
 pub(crate) fn inflate_prefix(data: &[u8], limit: usize) -> Result<Vec<u8>> {
     let mut out = Vec::with_capacity(limit.min(data.len().saturating_mul(PREALLOCATE_RATIO)));
-    let mut source = Reported::new(data);
+    let mut source = Reported::new(data, data.len() as u64, ReadStage::Decompressing);
     let reader: Box<dyn Read + '_> = if data.starts_with(&[0x1f, 0x8b]) {
         Box::new(MultiGzDecoder::new(&mut source))
     } else {
         Box::new(ZlibDecoder::new(&mut source))
     };
     let inflated = reader.take(limit as u64).read_to_end(&mut out);
-    if let Some(cancelled) = source.cancelled {
+    if let Some(cancelled) = source.cancelled() {
         return Err(cancelled);
     }
     inflated.map_err(|e| {
@@ -59,43 +57,6 @@ pub(crate) fn inflate_prefix(data: &[u8], limit: usize) -> Result<Vec<u8>> {
         ))
     })?;
     Ok(out)
-}
-
-/// The compressed bytes as the decoder reads them, reporting to the [`progress`] sink each
-/// time another [`REPORT_EVERY`] bytes have been consumed.
-struct Reported<'a> {
-    rest: &'a [u8],
-    total: usize,
-    next_report: usize,
-    /// Set when the sink cancelled; the decoder sees an I/O error.
-    cancelled: Option<Error>,
-}
-
-impl<'a> Reported<'a> {
-    fn new(data: &'a [u8]) -> Self {
-        Self {
-            rest: data,
-            total: data.len(),
-            next_report: REPORT_EVERY,
-            cancelled: None,
-        }
-    }
-}
-
-impl Read for Reported<'_> {
-    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        let read = self.rest.read(buf)?;
-        let done = self.total - self.rest.len();
-        if done >= self.next_report {
-            self.next_report = done + REPORT_EVERY;
-            let fraction = done as f64 / self.total as f64;
-            if let Err(cancelled) = progress::report(fraction, ReadStage::Decompressing) {
-                self.cancelled = Some(cancelled);
-                return Err(std::io::Error::other("cancelled"));
-            }
-        }
-        Ok(read)
-    }
 }
 
 /// Exactly `expected` bytes from a zlib or gzip stream; fewer or more is an error.
