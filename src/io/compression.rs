@@ -1,8 +1,10 @@
-//! zlib and gzip streams of voxel data. Decompression is capped at what the header promises
-//! (plus one byte, to notice a stream that holds more), and a promise that no DEFLATE stream of
-//! that length could keep is refused before anything is allocated, so a lying header cannot make
-//! a reader allocate more than the file really holds.
+//! zlib and gzip streams of voxel data. A stream is inflated straight into the voxels' buffer,
+//! exactly as many bytes as the header promises (then one more is asked for, to notice a stream
+//! that holds more), and a promise that no DEFLATE stream of that length could keep is refused
+//! before anything is allocated, so a lying header cannot make a reader allocate more than the
+//! file really holds.
 
+use std::borrow::Cow;
 use std::io::{Read, Write};
 
 use flate2::read::{MultiGzDecoder, ZlibDecoder};
@@ -11,6 +13,7 @@ use flate2::Compression;
 
 use super::progress::{ReadStage, Reported};
 use crate::error::{Error, Result};
+use crate::volume::{ScalarType, VoxelBuffer};
 
 /// DEFLATE expands at most about 1032:1 (a 258-byte match coded in two bits).
 const MAX_DEFLATE_RATIO: usize = 1032;
@@ -19,9 +22,6 @@ const FRAMING_BYTES: usize = 64;
 /// zlib level 1: on a CT scan it writes about ten times faster than the default level 6 for
 /// files about a fifth larger (aorta.mha: 4.0 MB instead of 3.4 MB).
 const LEVEL: Compression = Compression::fast();
-/// Up-front allocation relative to the compressed size; past it the output grows only as
-/// decompressed bytes really arrive.
-const PREALLOCATE_RATIO: usize = 16;
 
 /// Refuses `expected` decompressed bytes from `compressed_len` bytes when DEFLATE cannot do it.
 pub(crate) fn check_ratio(compressed_len: usize, expected: usize) -> Result<()> {
@@ -37,46 +37,123 @@ pub(crate) fn check_ratio(compressed_len: usize, expected: usize) -> Result<()> 
     Ok(())
 }
 
-/// At most `limit` bytes of the zlib or gzip stream `data` (told apart by gzip's magic bytes,
-/// as MetaIO does); fewer when the stream ends first.
-pub(crate) fn inflate_prefix(data: &[u8], limit: usize) -> Result<Vec<u8>> {
-    let mut out = Vec::with_capacity(limit.min(data.len().saturating_mul(PREALLOCATE_RATIO)));
+/// A data file's voxels as a reader finds them: raw bytes, or a zlib or gzip stream that
+/// inflates to `skip` bytes to drop and then `voxel_bytes` bytes of voxels. A stream stays
+/// compressed until the voxels' buffer is built and is inflated straight into it, so that the
+/// inflated bytes are never held beside the buffer.
+pub(crate) enum VoxelData<'a> {
+    Raw(Cow<'a, [u8]>),
+    Compressed {
+        stream: Cow<'a, [u8]>,
+        skip: usize,
+        voxel_bytes: usize,
+    },
+}
+
+impl<'a> VoxelData<'a> {
+    /// The voxels, of `scalar` in the given byte order.
+    pub(crate) fn into_buffer(
+        self,
+        scalar: ScalarType,
+        little_endian: bool,
+    ) -> Result<VoxelBuffer> {
+        match self {
+            VoxelData::Raw(bytes) => VoxelBuffer::from_bytes(scalar, &bytes, little_endian),
+            VoxelData::Compressed {
+                stream,
+                skip,
+                voxel_bytes,
+            } => {
+                let size = scalar.size_in_bytes();
+                if voxel_bytes % size != 0 {
+                    return Err(Error::format(format!(
+                        "{voxel_bytes} bytes is not a whole number of {} voxels",
+                        scalar.name()
+                    )));
+                }
+                inflate_voxels(&stream, skip, scalar, voxel_bytes / size, little_endian)
+            }
+        }
+    }
+
+    /// The same data owning its bytes (from a data file read into a local buffer).
+    pub(crate) fn into_owned(self) -> VoxelData<'static> {
+        match self {
+            VoxelData::Raw(bytes) => VoxelData::Raw(Cow::Owned(bytes.into_owned())),
+            VoxelData::Compressed {
+                stream,
+                skip,
+                voxel_bytes,
+            } => VoxelData::Compressed {
+                stream: Cow::Owned(stream.into_owned()),
+                skip,
+                voxel_bytes,
+            },
+        }
+    }
+
+    /// The voxels' bytes (one part of a data file LIST, which are joined as bytes).
+    pub(crate) fn into_bytes(self) -> Result<Cow<'a, [u8]>> {
+        match self {
+            VoxelData::Raw(bytes) => Ok(bytes),
+            compressed => match compressed.into_buffer(ScalarType::U8, true)? {
+                VoxelBuffer::U8(bytes) => Ok(Cow::Owned(bytes)),
+                _ => unreachable!("bytes are read as uint8"),
+            },
+        }
+    }
+}
+
+/// Exactly `count` voxels from the zlib or gzip stream `data` (told apart by gzip's magic
+/// bytes, as MetaIO does) after its first `skip` inflated bytes; a stream that ends sooner or
+/// holds more is an error, and so is a promise no stream of that length could keep (refused
+/// before anything is allocated).
+fn inflate_voxels(
+    data: &[u8],
+    skip: usize,
+    scalar: ScalarType,
+    count: usize,
+    little_endian: bool,
+) -> Result<VoxelBuffer> {
+    let expected = count
+        .checked_mul(scalar.size_in_bytes())
+        .and_then(|bytes| bytes.checked_add(skip))
+        .ok_or_else(|| Error::format("the header's sizes are impossibly large"))?;
+    check_ratio(data.len(), expected)?;
     let mut source = Reported::new(data, data.len() as u64, ReadStage::Decompressing);
-    let reader: Box<dyn Read + '_> = if data.starts_with(&[0x1f, 0x8b]) {
+    let mut inflated: Box<dyn Read + '_> = if data.starts_with(&[0x1f, 0x8b]) {
         Box::new(MultiGzDecoder::new(&mut source))
     } else {
         Box::new(ZlibDecoder::new(&mut source))
     };
-    let inflated = reader.take(limit as u64).read_to_end(&mut out);
-    if let Some(cancelled) = source.cancelled() {
-        return Err(cancelled);
-    }
-    inflated.map_err(|e| {
+    let corrupt = |e: std::io::Error| {
         Error::format(format!(
             "the compressed voxel data is corrupt or truncated ({e})"
         ))
-    })?;
-    Ok(out)
-}
-
-/// Exactly `expected` bytes from a zlib or gzip stream; fewer or more is an error.
-pub(crate) fn inflate_exact(data: &[u8], expected: usize) -> Result<Vec<u8>> {
-    check_ratio(data.len(), expected)?;
-    let out = inflate_prefix(data, expected.saturating_add(1))?;
-    if out.len() < expected {
-        return Err(Error::format(format!(
-            "the compressed data holds {} bytes but the header's sizes and type need {expected}: \
-             the file is truncated or its header is wrong",
-            out.len()
-        )));
+    };
+    let outcome = (|| {
+        let skipped = std::io::copy(&mut (&mut inflated).take(skip as u64), &mut std::io::sink())
+            .map_err(corrupt)?;
+        if skipped < skip as u64 {
+            return Err(Error::format(format!(
+                "the compressed data holds {skipped} bytes but the header's skip and sizes need \
+                 {expected}: the file is truncated or its header is wrong"
+            )));
+        }
+        let buffer = VoxelBuffer::read_from(scalar, count, little_endian, &mut inflated)?;
+        if inflated.read(&mut [0]).map_err(corrupt)? > 0 {
+            return Err(Error::format(format!(
+                "the compressed data holds more than the {expected} bytes the header's sizes and \
+                 type need: the header does not match the data"
+            )));
+        }
+        Ok(buffer)
+    })();
+    drop(inflated);
+    match source.cancelled() {
+        Some(cancelled) => Err(cancelled),
+        None => outcome,
     }
-    if out.len() > expected {
-        return Err(Error::format(format!(
-            "the compressed data holds more than the {expected} bytes the header's sizes and type \
-             need: the header does not match the data"
-        )));
-    }
-    Ok(out)
 }
 
 fn compress_error(e: std::io::Error) -> Error {
@@ -105,30 +182,59 @@ pub(crate) fn gzip(bytes: &[u8]) -> Result<Vec<u8>> {
 mod tests {
     use super::*;
 
+    fn inflated(stream: &[u8], skip: usize, bytes: usize) -> Result<Vec<u8>> {
+        let data = VoxelData::Compressed {
+            stream: Cow::Borrowed(stream),
+            skip,
+            voxel_bytes: bytes,
+        };
+        data.into_bytes().map(Cow::into_owned)
+    }
+
     #[test]
     fn zlib_and_gzip_streams_inflate_to_exactly_the_promised_size() {
         let data: Vec<u8> = (0..1000u32).map(|i| (i * 7 % 251) as u8).collect();
         for stream in [zlib(&data).unwrap(), gzip(&data).unwrap()] {
-            assert_eq!(inflate_exact(&stream, 1000).unwrap(), data);
-            let short = inflate_exact(&stream, 1001).unwrap_err();
-            assert!(short.message().contains("holds 1000 bytes"), "{short}");
-            let long = inflate_exact(&stream, 999).unwrap_err();
+            assert_eq!(inflated(&stream, 0, 1000).unwrap(), data);
+            assert_eq!(inflated(&stream, 10, 990).unwrap(), &data[10..]);
+            let short = inflated(&stream, 0, 1001).unwrap_err();
+            assert!(
+                short.message().contains("ends within the 1001 bytes"),
+                "{short}"
+            );
+            let long = inflated(&stream, 0, 999).unwrap_err();
             assert!(long.message().contains("more than"), "{long}");
-            assert_eq!(inflate_prefix(&stream, 10).unwrap(), &data[..10]);
-            assert!(inflate_exact(&stream[..stream.len() / 2], 1000).is_err());
+            assert!(inflated(&stream, 1001, 0).is_err());
+            assert!(inflated(&stream[..stream.len() / 2], 0, 1000).is_err());
         }
+    }
+
+    #[test]
+    fn voxels_inflate_in_their_type_and_byte_order() {
+        let values: Vec<i16> = (0..500).map(|i| i * 37 - 9000).collect();
+        let big: Vec<u8> = values.iter().flat_map(|v| v.to_be_bytes()).collect();
+        let stream = zlib(&big).unwrap();
+        let data = VoxelData::Compressed {
+            stream: Cow::Borrowed(&stream),
+            skip: 0,
+            voxel_bytes: big.len(),
+        };
+        assert_eq!(
+            data.into_buffer(ScalarType::I16, false).unwrap(),
+            VoxelBuffer::I16(values)
+        );
     }
 
     #[test]
     fn impossible_promises_are_refused_before_decompressing() {
         let stream = zlib(&[0u8; 100]).unwrap();
-        let e = inflate_exact(&stream, 1 << 40).unwrap_err();
+        let e = inflated(&stream, 0, 1 << 40).unwrap_err();
         assert!(e.message().contains("cannot hold more than"), "{e}");
         // A real maximal-ratio stream stays within the bound.
         let zeros = vec![0u8; 1 << 20];
         let stream = zlib(&zeros).unwrap();
         assert_eq!(
-            inflate_exact(&stream, zeros.len()).unwrap().len(),
+            inflated(&stream, 0, zeros.len()).unwrap().len(),
             zeros.len()
         );
     }

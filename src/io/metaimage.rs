@@ -20,7 +20,7 @@
 use std::borrow::Cow;
 use std::path::Path;
 
-use super::compression::{inflate_exact, zlib};
+use super::compression::{zlib, VoxelData};
 use super::files;
 use super::text_header::{
     beside, byte_count, concatenate_parts, fmt_list, geometry, has_suffix, line_at, lines_from,
@@ -28,7 +28,7 @@ use super::text_header::{
 };
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
-use crate::volume::{Image, ScalarType, VoxelBuffer};
+use crate::volume::{Image, ScalarType};
 
 /// MetaIO's element type names, the first name of each type being the one written.
 const ELEMENT_TYPES: [(&str, ScalarType); 10] = [
@@ -206,8 +206,7 @@ pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
         .unwrap_or(false);
     let geometry = read_geometry(&h, ndims)?;
     let expected = byte_count(dims, scalar)?;
-    let data = voxel_bytes(&h, bytes, path, expected)?;
-    let buffer = VoxelBuffer::from_bytes(scalar, &data, !big_endian)?;
+    let buffer = voxel_data(&h, bytes, path, expected)?.into_buffer(scalar, !big_endian)?;
     Image::new(buffer, dims, geometry)
 }
 
@@ -249,12 +248,12 @@ fn read_geometry(h: &Header, n: usize) -> Result<Geometry> {
 }
 
 /// The voxels' bytes, raw, from wherever `ElementDataFile` says.
-fn voxel_bytes<'a>(
+fn voxel_data<'a>(
     h: &Header,
     bytes: &'a [u8],
     path: &Path,
     expected: usize,
-) -> Result<Cow<'a, [u8]>> {
+) -> Result<VoxelData<'a>> {
     let compressed = h.flag(&["CompressedData"])?.unwrap_or(false);
     let compressed_size: Option<usize> = h.parsed("CompressedDataSize")?;
     let data_file = h.require("ElementDataFile")?;
@@ -270,9 +269,9 @@ fn voxel_bytes<'a>(
     if data_file.split_whitespace().next() == Some("LIST") {
         let names = lines_from(bytes, h.data_start);
         let all = concatenate_parts(path, &names, expected, |file, part| {
-            detached(file, header_size, part, compressed, None)
+            detached(file, header_size, part, compressed, None)?.into_bytes()
         })?;
-        return Ok(Cow::Owned(all));
+        return Ok(VoxelData::Raw(Cow::Owned(all)));
     }
     if data_file.contains('%') {
         return Err(Error::format(format!(
@@ -283,7 +282,7 @@ fn voxel_bytes<'a>(
     let file = files::read(&beside(path, data_file))?;
     let part = detached(&file, header_size, expected, compressed, compressed_size)
         .map_err(|e| e.context(data_file))?;
-    Ok(Cow::Owned(part.into_owned()))
+    Ok(part.into_owned())
 }
 
 /// The voxels of a separate data file that starts with `header_size` bytes to skip.
@@ -293,7 +292,7 @@ fn detached(
     expected: usize,
     compressed: bool,
     compressed_size: Option<usize>,
-) -> Result<Cow<'_, [u8]>> {
+) -> Result<VoxelData<'_>> {
     let start = match header_size {
         -1 if compressed => {
             return Err(Error::format(
@@ -313,15 +312,16 @@ fn detached(
     block(&file[start..], expected, compressed, compressed_size)
 }
 
-/// `expected` raw bytes from the start of `data`, inflating it first when compressed.
+/// `expected` bytes of voxels from the start of `data`, still compressed when they are.
 fn block(
     data: &[u8],
     expected: usize,
     compressed: bool,
     compressed_size: Option<usize>,
-) -> Result<Cow<'_, [u8]>> {
+) -> Result<VoxelData<'_>> {
     if !compressed {
-        return take_bytes(data, expected, "the voxel data").map(Cow::Borrowed);
+        return take_bytes(data, expected, "the voxel data")
+            .map(|d| VoxelData::Raw(Cow::Borrowed(d)));
     }
     let stream = match compressed_size {
         Some(n) => data.get(..n).ok_or_else(|| {
@@ -332,7 +332,11 @@ fn block(
         })?,
         None => data,
     };
-    inflate_exact(stream, expected).map(Cow::Owned)
+    Ok(VoxelData::Compressed {
+        stream: Cow::Borrowed(stream),
+        skip: 0,
+        voxel_bytes: expected,
+    })
 }
 
 #[cfg(test)]
@@ -341,6 +345,7 @@ mod tests {
     use crate::io::test_images::{
         assert_never_panics, assert_same_voxels, oblique_geometry, pattern_image, scratch_dir,
     };
+    use crate::volume::VoxelBuffer;
     use balloonseg_testkit::data_dir;
 
     #[test]

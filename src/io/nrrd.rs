@@ -20,7 +20,7 @@
 use std::borrow::Cow;
 use std::path::Path;
 
-use super::compression::{gzip, inflate_exact};
+use super::compression::{gzip, VoxelData};
 use super::files;
 use super::text_header::{
     axes_of, beside, byte_count, concatenate_parts, fmt_list, geometry, geometry_from_axes,
@@ -28,7 +28,7 @@ use super::text_header::{
 };
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
-use crate::volume::{Image, ScalarType, VoxelBuffer};
+use crate::volume::{Image, ScalarType};
 
 /// NRRD's type names (teem's equivalents), the first of each type being the one written.
 const TYPES: [(&str, ScalarType); 32] = [
@@ -248,8 +248,7 @@ pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
         }
     };
     let expected = byte_count(dims, scalar)?;
-    let data = voxel_bytes(&h, bytes, path, expected)?;
-    let buffer = VoxelBuffer::from_bytes(scalar, &data, little_endian)?;
+    let buffer = voxel_data(&h, bytes, path, expected)?.into_buffer(scalar, little_endian)?;
     Image::new(buffer, dims, geometry)
 }
 
@@ -451,12 +450,12 @@ fn read_geometry(
 }
 
 /// The voxels' raw bytes, attached or from the data file(s), after `line skip` and `byte skip`.
-fn voxel_bytes<'a>(
+fn voxel_data<'a>(
     h: &Header,
     bytes: &'a [u8],
     path: &Path,
     expected: usize,
-) -> Result<Cow<'a, [u8]>> {
+) -> Result<VoxelData<'a>> {
     let encoding = h.require("encoding", "encoding")?.to_ascii_lowercase();
     let compressed = match encoding.as_str() {
         "raw" => false,
@@ -481,8 +480,10 @@ fn voxel_bytes<'a>(
         return skip.apply(&bytes[start..], expected);
     };
     if data_file.split_whitespace().next() == Some("LIST") {
-        let all = concatenate_parts(path, &h.list, expected, |file, part| skip.apply(file, part))?;
-        return Ok(Cow::Owned(all));
+        let all = concatenate_parts(path, &h.list, expected, |file, part| {
+            skip.apply(file, part)?.into_bytes()
+        })?;
+        return Ok(VoxelData::Raw(Cow::Owned(all)));
     }
     if data_file.contains('%') {
         return Err(Error::format(format!(
@@ -494,7 +495,7 @@ fn voxel_bytes<'a>(
     let part = skip
         .apply(&file, expected)
         .map_err(|e| e.context(data_file))?;
-    Ok(Cow::Owned(part.into_owned()))
+    Ok(part.into_owned())
 }
 
 struct Skip {
@@ -504,9 +505,9 @@ struct Skip {
 }
 
 impl Skip {
-    /// `expected` voxel bytes from a data file: `line skip` lines of the file skipped, then
-    /// `byte skip` bytes of the (decompressed) data.
-    fn apply<'b>(&self, file: &'b [u8], expected: usize) -> Result<Cow<'b, [u8]>> {
+    /// `expected` voxel bytes from a data file (still compressed when they are): `line skip`
+    /// lines of the file skipped, then `byte skip` bytes of the (decompressed) data.
+    fn apply<'b>(&self, file: &'b [u8], expected: usize) -> Result<VoxelData<'b>> {
         let mut start = 0;
         for _ in 0..self.lines {
             start = line_at(file, start)
@@ -528,7 +529,7 @@ impl Skip {
                         data.len()
                     ))
                 })?;
-                Ok(Cow::Borrowed(&data[start..]))
+                Ok(VoxelData::Raw(Cow::Borrowed(&data[start..])))
             }
             (-1, true) => Err(Error::format(
                 "byte skip: -1 (data at the end of the file) works only with raw encoding",
@@ -541,11 +542,14 @@ impl Skip {
                     Error::format(format!("byte skip: {skip} is impossibly large"))
                 })?;
                 if compressed {
-                    let mut all = inflate_exact(data, total)?;
-                    all.drain(..skip);
-                    Ok(Cow::Owned(all))
+                    Ok(VoxelData::Compressed {
+                        stream: Cow::Borrowed(data),
+                        skip,
+                        voxel_bytes: expected,
+                    })
                 } else {
-                    take_bytes(data, total, "the voxel data").map(|d| Cow::Borrowed(&d[skip..]))
+                    take_bytes(data, total, "the voxel data")
+                        .map(|d| VoxelData::Raw(Cow::Borrowed(&d[skip..])))
                 }
             }
         }
@@ -559,6 +563,7 @@ mod tests {
         assert_geometry_close, assert_never_panics, assert_same_voxels, oblique_geometry,
         pattern_image, scratch_dir,
     };
+    use crate::volume::VoxelBuffer;
 
     /// Space directions carry spacing × direction, so the spacing read back is a vector length,
     /// equal to the one written up to rounding.
