@@ -150,3 +150,15 @@ fn regression_a_transfer_syntax_uid_ending_in_latin_1_whitespace_hid_a_declared_
         "slice.dcm: element (0820,1600) declares 4143979008 bytes but only",
     );
 }
+
+#[test]
+fn regression_rle_pixel_data_as_a_plain_value_reached_the_decoder_unchecked() {
+    // Found by the `dicom` target: an RLE slice whose pixel data is a plain OF value of 60
+    // bytes, not encapsulated fragments. dicom-rs's RLE decoder takes a plain value for one
+    // fragment and allocated the 9,182,773,252 bytes of segment offsets its first word
+    // declared; the fragment check only looked at encapsulated data.
+    assert_refused(
+        "dicom-rle-pixel-data-not-encapsulated",
+        "slice.dcm: its pixel data is a plain value where its compressed transfer syntax needs",
+    );
+}

@@ -555,26 +555,31 @@ fn check_fragments(
     object: &dicom_object::DefaultDicomObject,
     syntax: &str,
 ) -> Result<()> {
-    let Some(fragments) = object
-        .element_opt(PIXEL_DATA)
-        .ok()
-        .flatten()
-        .and_then(|element| element.value().fragments())
-    else {
+    let rle = syntax == RLE_LOSSLESS;
+    if !rle && !JPEG.contains(&syntax) {
+        return Ok(());
+    }
+    let Some(element) = object.element_opt(PIXEL_DATA).ok().flatten() else {
         return Ok(());
     };
+    // dicom-rs's codecs would take a plain value for one fragment and trust its first bytes.
+    let fragments = element.value().fragments().ok_or_else(|| {
+        corrupt(
+            &slice.path,
+            "its pixel data is a plain value where its compressed transfer syntax needs \
+             encapsulated fragments",
+        )
+    })?;
     let frame = fragments::Frame {
         path: &slice.path,
         columns: slice.size[0],
         rows: slice.size[1],
         bits_allocated: slice.format.bits_allocated,
     };
-    if syntax == RLE_LOSSLESS {
+    if rle {
         frame.check_rle(fragments)
-    } else if JPEG.contains(&syntax) {
-        frame.check_jpeg(fragments)
     } else {
-        Ok(())
+        frame.check_jpeg(fragments)
     }
 }
 
@@ -584,7 +589,7 @@ fn decode_slice<T>(slice: &Slice, out: &mut [T], convert: &impl Fn(f64) -> T) ->
     let object = OpenFileOptions::new()
         .open_file(path)
         .map_err(|e| corrupt(path, format!("cannot read the DICOM file ({e})")))?;
-    let syntax = object.meta().transfer_syntax.trim_end_matches('\0');
+    let syntax = object.meta().transfer_syntax();
     let undecodable = |why: String| {
         Error::format(format!(
             "{}: cannot decode the pixel data ({why}); transfer syntax {syntax}. balloonseg \

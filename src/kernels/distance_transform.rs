@@ -116,36 +116,42 @@ fn transform<T: Sample>(samples: &mut [T], dims: [usize; 3], spacing: [f64; 3]) 
         },
     );
     // Along z, a row of lines at a time (all i for one j), gathered from every slab into a
-    // buffer, and scattered back slab by slab.
-    let columns: Vec<Vec<T>> = (0..ny)
-        .into_par_iter()
-        .map_init(
-            || LowerEnvelope::with_capacity(nz),
-            |envelope, j| {
-                let mut lines = vec![T::default(); nx * nz];
-                for k in 0..nz {
-                    let row = &samples[(k * ny + j) * nx..][..nx];
-                    for (i, &v) in row.iter().enumerate() {
-                        lines[i * nz + k] = v;
+    // buffer, and scattered back slab by slab; a batch of rows at a time, so that the buffers
+    // hold a sixteenth of the grid rather than a second copy of it.
+    let batch = (ny / 16).max(2 * rayon::current_num_threads()).max(1);
+    for first in (0..ny).step_by(batch) {
+        let rows = first..(first + batch).min(ny);
+        let columns: Vec<Vec<T>> = rows
+            .clone()
+            .into_par_iter()
+            .map_init(
+                || LowerEnvelope::with_capacity(nz),
+                |envelope, j| {
+                    let mut lines = vec![T::default(); nx * nz];
+                    for k in 0..nz {
+                        let row = &samples[(k * ny + j) * nx..][..nx];
+                        for (i, &v) in row.iter().enumerate() {
+                            lines[i * nz + k] = v;
+                        }
+                    }
+                    for line in lines.chunks_mut(nz) {
+                        envelope.transform(line, spacing[2]);
+                    }
+                    lines
+                },
+            )
+            .collect();
+        samples
+            .par_chunks_mut(nx * ny)
+            .enumerate()
+            .for_each(|(k, slab)| {
+                for (j, lines) in rows.clone().zip(&columns) {
+                    for (i, v) in slab[j * nx..][..nx].iter_mut().enumerate() {
+                        *v = lines[i * nz + k];
                     }
                 }
-                for line in lines.chunks_mut(nz) {
-                    envelope.transform(line, spacing[2]);
-                }
-                lines
-            },
-        )
-        .collect();
-    samples
-        .par_chunks_mut(nx * ny)
-        .enumerate()
-        .for_each(|(k, slab)| {
-            for (j, lines) in columns.iter().enumerate() {
-                for (i, v) in slab[j * nx..][..nx].iter_mut().enumerate() {
-                    *v = lines[i * nz + k];
-                }
-            }
-        });
+            });
+    }
 }
 
 /// Transforms the `count` lines of `slab` that run across its rows of `width` voxels (the
