@@ -5,7 +5,7 @@
 //! file really holds.
 
 use std::borrow::Cow;
-use std::io::{Read, Write};
+use std::io::{BufRead, Read, Write};
 
 use flate2::read::{MultiGzDecoder, ZlibDecoder};
 use flate2::write::{GzEncoder, ZlibEncoder};
@@ -71,7 +71,15 @@ impl<'a> VoxelData<'a> {
                         scalar.name()
                     )));
                 }
-                inflate_voxels(&stream, skip, scalar, voxel_bytes / size, little_endian)
+                let count = voxel_bytes / size;
+                inflate_voxels(
+                    &stream[..],
+                    stream.len(),
+                    skip,
+                    scalar,
+                    count,
+                    little_endian,
+                )
             }
         }
     }
@@ -104,12 +112,13 @@ impl<'a> VoxelData<'a> {
     }
 }
 
-/// Exactly `count` voxels from the zlib or gzip stream `data` (told apart by gzip's magic
-/// bytes, as MetaIO does) after its first `skip` inflated bytes; a stream that ends sooner or
-/// holds more is an error, and so is a promise no stream of that length could keep (refused
-/// before anything is allocated).
-fn inflate_voxels(
-    data: &[u8],
+/// Exactly `count` voxels from the zlib or gzip stream of `compressed_len` bytes that `source`
+/// gives (told apart by gzip's magic bytes, as MetaIO does), after its first `skip` inflated
+/// bytes; a stream that ends sooner or holds more is an error, and so is a promise no stream of
+/// that length could keep (refused before anything is allocated).
+pub(crate) fn inflate_voxels(
+    mut source: impl BufRead,
+    compressed_len: usize,
     skip: usize,
     scalar: ScalarType,
     count: usize,
@@ -119,9 +128,13 @@ fn inflate_voxels(
         .checked_mul(scalar.size_in_bytes())
         .and_then(|bytes| bytes.checked_add(skip))
         .ok_or_else(|| Error::format("the header's sizes are impossibly large"))?;
-    check_ratio(data.len(), expected)?;
-    let mut source = Reported::new(data, data.len() as u64, ReadStage::Decompressing);
-    let mut inflated: Box<dyn Read + '_> = if data.starts_with(&[0x1f, 0x8b]) {
+    check_ratio(compressed_len, expected)?;
+    let gzipped = source
+        .fill_buf()
+        .map_err(|e| Error::io(format!("cannot read the compressed voxel data ({e})")))?
+        .starts_with(&[0x1f, 0x8b]);
+    let mut source = Reported::new(source, compressed_len as u64, ReadStage::Decompressing);
+    let mut inflated: Box<dyn Read + '_> = if gzipped {
         Box::new(MultiGzDecoder::new(&mut source))
     } else {
         Box::new(ZlibDecoder::new(&mut source))

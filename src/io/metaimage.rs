@@ -18,19 +18,26 @@
 //! header there and the compressed data beside it in `<stem>.zraw`.
 
 use std::borrow::Cow;
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read};
 use std::path::Path;
 
-use super::compression::{zlib, VoxelData};
+use super::compression::{inflate_voxels, zlib, VoxelData};
 use super::files;
+use super::progress::{ReadStage, Reported};
 use super::text_header::{
     beside, byte_count, concatenate_parts, fmt_list, geometry, has_suffix, line_at, lines_from,
     number, numbers, sizes, take_bytes,
 };
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
-use crate::volume::{Image, ScalarType};
+use crate::volume::{Image, ScalarType, VoxelBuffer};
 
 /// MetaIO's element type names, the first name of each type being the one written.
+/// The bytes read first, in which a header to stream the voxels after must end: MetaImage
+/// headers take a few hundred bytes.
+const HEADER_PREFIX: u64 = 4096;
+
 const ELEMENT_TYPES: [(&str, ScalarType); 10] = [
     ("MET_UCHAR", ScalarType::U8),
     ("MET_CHAR", ScalarType::I8),
@@ -44,9 +51,92 @@ const ELEMENT_TYPES: [(&str, ScalarType); 10] = [
     ("MET_LONG", ScalarType::I32),
 ];
 
-/// Reads a `.mha` or `.mhd` image.
+/// Reads a `.mha` or `.mhd` image. Voxels that follow the header in the same file (`LOCAL`)
+/// are streamed from the file into the image's buffer, through the inflater when compressed,
+/// so that the file's bytes are never held beside them; other layouts are read whole.
 pub fn read(path: &Path) -> Result<Image> {
-    files::parse_file(path, |bytes| decode(bytes, path))
+    let failed =
+        |e: std::io::Error| Error::io(format!("{}: cannot read the file: {e}", path.display()));
+    let mut file = File::open(path).map_err(failed)?;
+    let size = file.metadata().map_err(failed)?.len();
+    let mut bytes = Vec::new();
+    (&mut file)
+        .take(HEADER_PREFIX)
+        .read_to_end(&mut bytes)
+        .map_err(failed)?;
+    let local = Header::parse(&bytes).ok().filter(|h| {
+        h.get(&["ElementDataFile"])
+            .is_some_and(|(_, file)| file.eq_ignore_ascii_case("LOCAL"))
+    });
+    let (Some(h), true) = (local, size > bytes.len() as u64) else {
+        // Small, or a header this reader does not stream: the whole file, parsed from memory.
+        drop(file);
+        return files::parse_file(path, |bytes| decode(bytes, path));
+    };
+    let data_len = size - h.data_start as u64;
+    let data = std::io::Cursor::new(&bytes[h.data_start..]).chain(file);
+    let described = describe(&h).map_err(|e| e.context(path.display()))?;
+    local_stream(
+        &h,
+        described,
+        BufReader::with_capacity(1 << 20, data),
+        data_len,
+    )
+    .map_err(|e| e.context(path.display()))
+}
+
+/// What the header says of the voxels: sizes, type and byte order, and the geometry.
+struct Described {
+    dims: [usize; 3],
+    scalar: ScalarType,
+    big_endian: bool,
+    geometry: Geometry,
+}
+
+/// Voxels of `described` streamed from `data`, the `data_len` bytes after a `LOCAL` header.
+fn local_stream(
+    h: &Header,
+    described: Described,
+    data: impl BufRead,
+    data_len: u64,
+) -> Result<Image> {
+    let Described {
+        dims,
+        scalar,
+        big_endian,
+        geometry,
+    } = described;
+    let expected = byte_count(dims, scalar)?;
+    let count = expected / scalar.size_in_bytes();
+    let buffer = if h.flag(&["CompressedData"])?.unwrap_or(false) {
+        let stream_len = match h.parsed::<u64>("CompressedDataSize")? {
+            Some(n) if n > data_len => {
+                return Err(Error::format(format!(
+                    "CompressedDataSize = {n} but only {data_len} bytes of data follow: the file \
+                     is truncated"
+                )))
+            }
+            Some(n) => n,
+            None => data_len,
+        };
+        let stream = BufReader::new(data.take(stream_len));
+        let stream_len = usize::try_from(stream_len).unwrap_or(usize::MAX);
+        inflate_voxels(stream, stream_len, 0, scalar, count, !big_endian)?
+    } else {
+        if (expected as u64) > data_len {
+            return Err(Error::format(format!(
+                "the voxel data holds {data_len} bytes but the header's sizes and type need \
+                 {expected}: the file is truncated or its header is wrong"
+            )));
+        }
+        let mut source = Reported::new(data, data_len, ReadStage::Reading);
+        let read = VoxelBuffer::read_from(scalar, count, !big_endian, &mut source);
+        if let Some(cancelled) = source.cancelled() {
+            return Err(cancelled);
+        }
+        read?
+    };
+    Image::new(buffer, dims, geometry)
 }
 
 /// Writes `image` as `.mha` (data after the header) or, for a `.mhd` path, with the data in a
@@ -172,6 +262,19 @@ impl Header {
 
 pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
     let h = Header::parse(bytes)?;
+    let Described {
+        dims,
+        scalar,
+        big_endian,
+        geometry,
+    } = describe(&h)?;
+    let expected = byte_count(dims, scalar)?;
+    let buffer = voxel_data(&h, bytes, path, expected)?.into_buffer(scalar, !big_endian)?;
+    Image::new(buffer, dims, geometry)
+}
+
+/// The header's fields about the voxels, checked.
+fn describe(h: &Header) -> Result<Described> {
     if let Some((_, kind)) = h.get(&["ObjectType"]) {
         if !kind.eq_ignore_ascii_case("Image") {
             return Err(Error::format(format!(
@@ -204,10 +307,12 @@ pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
     let big_endian = h
         .flag(&["BinaryDataByteOrderMSB", "ElementByteOrderMSB"])?
         .unwrap_or(false);
-    let geometry = read_geometry(&h, ndims)?;
-    let expected = byte_count(dims, scalar)?;
-    let buffer = voxel_data(&h, bytes, path, expected)?.into_buffer(scalar, !big_endian)?;
-    Image::new(buffer, dims, geometry)
+    Ok(Described {
+        dims,
+        scalar,
+        big_endian,
+        geometry: read_geometry(h, ndims)?,
+    })
 }
 
 fn element_type(name: &str) -> Result<ScalarType> {
@@ -411,6 +516,69 @@ mod tests {
         assert_eq!(g.spacing(), [0.5, 0.25, 1.0]);
         assert_eq!(g.origin(), [4.0, 5.0, 0.0]);
         assert_eq!(g.direction(), [0., 1., 0., 1., 0., 0., 0., 0., 1.]);
+    }
+
+    /// A 40×30×20 int16 .mha (48 KB of voxels, past the streamed header prefix): raw
+    /// big-endian, or zlib-compressed with the CompressedDataSize `declared` makes of the
+    /// stream's true length (none when it gives `None`).
+    fn local_mha(
+        compressed: bool,
+        declared: impl Fn(usize) -> Option<usize>,
+    ) -> (Vec<u8>, Vec<i16>) {
+        let voxels: Vec<i16> = (0..24_000).map(|n| (n * 37 % 5000 - 2500) as i16).collect();
+        let raw: Vec<u8> = voxels.iter().flat_map(|v| v.to_be_bytes()).collect();
+        let data = if compressed { zlib(&raw).unwrap() } else { raw };
+        let mut header = "NDims = 3\nDimSize = 40 30 20\nElementType = MET_SHORT\n\
+                          ElementByteOrderMSB = True\n"
+            .to_string();
+        if compressed {
+            header.push_str("CompressedData = True\n");
+        }
+        if let Some(n) = declared(data.len()).filter(|_| compressed) {
+            header.push_str(&format!("CompressedDataSize = {n}\n"));
+        }
+        header.push_str("ElementDataFile = LOCAL\n");
+        let mut file = header.into_bytes();
+        file.extend(data);
+        (file, voxels)
+    }
+
+    #[test]
+    fn local_voxels_are_streamed_from_the_file_as_they_are_parsed_from_memory() {
+        let dir = scratch_dir();
+        let path = dir.path().join("v.mha");
+        let (raw, voxels) = local_mha(false, |_| None);
+        let (zipped, _) = local_mha(true, |_| None);
+        let (sized, _) = local_mha(true, Some);
+        for file in [raw, zipped, sized] {
+            std::fs::write(&path, &file).unwrap();
+            let streamed = read(&path).unwrap();
+            assert_eq!(streamed.buffer(), &VoxelBuffer::I16(voxels.clone()));
+            assert_same_voxels(&streamed, &decode(&file, &path).unwrap());
+        }
+    }
+
+    #[test]
+    fn streamed_local_voxels_that_the_file_cannot_hold_are_errors_naming_it() {
+        let dir = scratch_dir();
+        let path = dir.path().join("v.mha");
+        let (raw, _) = local_mha(false, |_| None);
+        std::fs::write(&path, &raw[..raw.len() - 1]).unwrap();
+        let short = read(&path).unwrap_err().to_string();
+        assert!(
+            short.contains("v.mha") && short.contains("need 48000"),
+            "{short}"
+        );
+        let (zipped, _) = local_mha(true, |_| Some(1 << 30));
+        std::fs::write(&path, &zipped).unwrap();
+        let lying = read(&path).unwrap_err().to_string();
+        assert!(
+            lying.contains("CompressedDataSize = 1073741824 but only"),
+            "{lying}"
+        );
+        let (zipped, _) = local_mha(true, |_| None);
+        std::fs::write(&path, &zipped[..zipped.len() - 100]).unwrap();
+        assert!(read(&path).is_err());
     }
 
     #[test]

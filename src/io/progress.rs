@@ -180,13 +180,14 @@ pub(crate) mod tests {
     }
 
     /// A 256×256×80 int16 volume of incompressible bits (10 MiB, over one read chunk) written
-    /// as `.nii.gz`, as the `.nii` it inflates to and as `.mha` (zlib).
+    /// as `.nii.gz`, as the `.nii` it inflates to, as `.mha` (zlib) and as `.nrrd` (gzip).
     fn large_volume_files() -> (tempfile::TempDir, Image) {
         let dir = scratch_dir();
         let image = pattern_image(ScalarType::I16, [256, 256, 80], Geometry::identity(), 3);
         let gz = dir.path().join("v.nii.gz");
         write_image(&gz, &image).unwrap();
         write_image(&dir.path().join("v.mha"), &image).unwrap();
+        write_image(&dir.path().join("v.nrrd"), &image).unwrap();
         let mut raw = Vec::new();
         flate2::read::GzDecoder::new(std::fs::File::open(&gz).unwrap())
             .read_to_end(&mut raw)
@@ -198,11 +199,14 @@ pub(crate) mod tests {
     #[test]
     fn reading_and_inflating_a_volume_report_rising_fractions_up_to_the_end() {
         let (dir, image) = large_volume_files();
-        // NIfTI streams the file through the inflater: one stage over the file's bytes.
+        // NIfTI and MetaImage stream the file: NIfTI reports the file's bytes read (through the
+        // inflater for .nii.gz), MetaImage the compressed bytes inflated. NRRD reads the whole
+        // file, then inflates it.
         for (name, stages) in [
             ("v.nii", vec![ReadStage::Reading]),
             ("v.nii.gz", vec![ReadStage::Reading]),
-            ("v.mha", vec![ReadStage::Reading, ReadStage::Decompressing]),
+            ("v.mha", vec![ReadStage::Decompressing]),
+            ("v.nrrd", vec![ReadStage::Reading, ReadStage::Decompressing]),
         ] {
             let (progress, seen) = recorder();
             let read = read_image_reporting(&dir.path().join(name), None, progress).unwrap();
