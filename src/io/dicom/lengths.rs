@@ -236,13 +236,26 @@ mod tests {
             uid.push(0);
         }
         let syntax = element(TRANSFER_SYNTAX_UID, b"UI", uid.len() as u32, &uid);
+        file_with_meta(b"UL", &[syntax], data_set)
+    }
+
+    /// A Part 10 file whose meta group holds `meta`, its group length under the VR
+    /// `length_vr`, then `data_set`.
+    fn file_with_meta(length_vr: &[u8; 2], meta: &[Vec<u8>], data_set: &[u8]) -> Vec<u8> {
+        let meta = meta.concat();
         let mut out = vec![0; 128];
         out.extend(b"DICM");
-        let group_length = (syntax.len() as u32).to_le_bytes();
-        out.extend(element(GROUP_LENGTH, b"UL", 4, &group_length));
-        out.extend(syntax);
+        let group_length = (meta.len() as u32).to_le_bytes();
+        out.extend(element(GROUP_LENGTH, length_vr, 4, &group_length));
+        out.extend(meta);
         out.extend(data_set);
         out
+    }
+
+    /// Asserts that the walk refuses `bytes` with a message holding `expected`.
+    fn assert_refused(bytes: &[u8], expected: &str) {
+        let error = checked(bytes).unwrap_err();
+        assert!(error.to_string().contains(expected), "{error}");
     }
 
     fn checked(bytes: &[u8]) -> Result<()> {
@@ -261,18 +274,16 @@ mod tests {
         assert!(checked(&file(EXPLICIT_VR_LITTLE_ENDIAN, &thickness)).is_ok());
         let mut lying = element(SLICE_THICKNESS, b"OB", 2_863_311_530, b"");
         lying.extend([0; 10]);
-        let error = checked(&file(EXPLICIT_VR_LITTLE_ENDIAN, &lying)).unwrap_err();
-        let message = error.to_string();
-        assert!(
-            message.contains("(0018,0050) declares 2863311530 bytes but only 10 follow"),
-            "{message}"
+        assert_refused(
+            &file(EXPLICIT_VR_LITTLE_ENDIAN, &lying),
+            "(0018,0050) declares 2863311530 bytes but only 10 follow",
         );
         // A meta group element that lies.
-        let mut meta_lie = vec![0; 128];
-        meta_lie.extend(b"DICM");
-        meta_lie.extend(element(GROUP_LENGTH, b"UL", 4, &12u32.to_le_bytes()));
-        meta_lie.extend(element(TRANSFER_SYNTAX_UID, b"UI", 60_000, b"1.2"));
-        assert!(checked(&meta_lie).is_err());
+        let syntax = element(TRANSFER_SYNTAX_UID, b"UI", 60_000, b"1.2");
+        assert_refused(
+            &file_with_meta(b"UL", &[syntax], b""),
+            "(0002,0010) declares",
+        );
     }
 
     #[test]
@@ -282,10 +293,9 @@ mod tests {
         data_set.extend(element(SLICE_THICKNESS, b"UT", 1 << 30, b"1.25"));
         data_set.extend(marker(Tag(0xFFFE, 0xE00D), 0));
         data_set.extend(marker(SEQUENCE_DELIMITER, 0));
-        let error = checked(&file(EXPLICIT_VR_LITTLE_ENDIAN, &data_set)).unwrap_err();
-        assert!(
-            error.to_string().contains("(0018,0050) declares"),
-            "{error}"
+        assert_refused(
+            &file(EXPLICIT_VR_LITTLE_ENDIAN, &data_set),
+            "(0018,0050) declares",
         );
     }
 
@@ -300,11 +310,7 @@ mod tests {
             file("1.2.840.10008.1.2.5", &data_set)
         };
         assert!(checked(&fragments(4)).is_ok());
-        let error = checked(&fragments(1 << 31)).unwrap_err();
-        assert!(
-            error.to_string().contains("(FFFE,E000) declares"),
-            "{error}"
-        );
+        assert_refused(&fragments(1 << 31), "(FFFE,E000) declares");
     }
 
     #[test]
@@ -331,18 +337,9 @@ mod tests {
         let syntax = EXPLICIT_VR_LITTLE_ENDIAN.as_bytes();
         let stray = element(Tag(0x7FFF, 0x0002), b"UI", 2, b"1\0");
         let real = element(TRANSFER_SYNTAX_UID, b"UI", syntax.len() as u32, syntax);
-        let mut bytes = vec![0; 128];
-        bytes.extend(b"DICM");
-        let group_length = (stray.len() + real.len()) as u32;
-        bytes.extend(element(GROUP_LENGTH, b"UL", 4, &group_length.to_le_bytes()));
-        bytes.extend(stray);
-        bytes.extend(real);
-        bytes.extend(element(SLICE_THICKNESS, b"OB", 3_184_309_496, b""));
-        let error = checked(&bytes).unwrap_err();
-        assert!(
-            error.to_string().contains("(0018,0050) declares"),
-            "{error}"
-        );
+        let lying = element(SLICE_THICKNESS, b"OB", 3_184_309_496, b"");
+        let bytes = file_with_meta(b"UL", &[stray, real], &lying);
+        assert_refused(&bytes, "(0018,0050) declares");
     }
 
     #[test]
@@ -365,22 +362,11 @@ mod tests {
         // A fuzzed slice gave (0002,0010) the VR SS: the walk read its value as numbers, found
         // no transfer syntax and checked nothing, while dicom-rs reads the bytes as text (RLE
         // lossless) and then allocated the 2,896,403,089 bytes an element declared.
-        let syntax = b"1.2.840.10008.1.2.5\0";
-        let odd = element(TRANSFER_SYNTAX_UID, b"SS", syntax.len() as u32, syntax);
-        let mut bytes = vec![0; 128];
-        bytes.extend(b"DICM");
-        bytes.extend(element(
-            GROUP_LENGTH,
-            b"UL",
-            4,
-            &(odd.len() as u32).to_le_bytes(),
-        ));
-        bytes.extend(odd);
-        bytes.extend(element(SLICE_THICKNESS, b"OB", 2_896_403_089, b""));
-        let error = checked(&bytes).unwrap_err();
-        assert!(
-            error.to_string().contains("(0018,0050) declares"),
-            "{error}"
+        let odd = element(TRANSFER_SYNTAX_UID, b"SS", 20, b"1.2.840.10008.1.2.5\0");
+        let lying = element(SLICE_THICKNESS, b"OB", 2_896_403_089, b"");
+        assert_refused(
+            &file_with_meta(b"UL", &[odd], &lying),
+            "(0018,0050) declares",
         );
     }
 
@@ -389,20 +375,10 @@ mod tests {
         // A fuzzed slice gave (0002,0000) the VR FD: the walk read no number from its 4 bytes
         // and checked nothing, while dicom-rs reads them as a u32 whatever the VR.
         let syntax = element(TRANSFER_SYNTAX_UID, b"UI", 20, b"1.2.840.10008.1.2.5\0");
-        let mut bytes = vec![0; 128];
-        bytes.extend(b"DICM");
-        bytes.extend(element(
-            GROUP_LENGTH,
-            b"FD",
-            4,
-            &(syntax.len() as u32).to_le_bytes(),
-        ));
-        bytes.extend(syntax);
-        bytes.extend(element(SLICE_THICKNESS, b"OB", 2_147_811_328, b""));
-        let error = checked(&bytes).unwrap_err();
-        assert!(
-            error.to_string().contains("(0018,0050) declares"),
-            "{error}"
+        let lying = element(SLICE_THICKNESS, b"OB", 2_147_811_328, b"");
+        assert_refused(
+            &file_with_meta(b"FD", &[syntax], &lying),
+            "(0018,0050) declares",
         );
     }
 
@@ -412,24 +388,10 @@ mod tests {
         // such syntax and checked nothing; dicom-rs decodes ISO 8859-1, where 0x85 is NEL, a
         // whitespace it trims, and read the data set as implicit VR little endian.
         let syntax = element(TRANSFER_SYNTAX_UID, b"UI", 18, b"1.2.840.10008.1.2\x85");
-        let mut bytes = vec![0; 128];
-        bytes.extend(b"DICM");
-        bytes.extend(element(
-            GROUP_LENGTH,
-            b"UL",
-            4,
-            &(syntax.len() as u32).to_le_bytes(),
-        ));
-        bytes.extend(syntax);
-        bytes.extend([0x18, 0, 0x50, 0]);
-        bytes.extend(4_143_979_008u32.to_le_bytes());
-        let error = checked(&bytes).unwrap_err();
-        assert!(
-            error
-                .to_string()
-                .contains("(0018,0050) declares 4143979008"),
-            "{error}"
-        );
+        let mut implicit = vec![0x18, 0, 0x50, 0];
+        implicit.extend(4_143_979_008u32.to_le_bytes());
+        let bytes = file_with_meta(b"UL", &[syntax], &implicit);
+        assert_refused(&bytes, "(0018,0050) declares 4143979008");
     }
 
     #[test]
