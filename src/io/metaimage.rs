@@ -64,9 +64,11 @@ pub fn read(path: &Path) -> Result<Image> {
         .take(HEADER_PREFIX)
         .read_to_end(&mut bytes)
         .map_err(failed)?;
+    // The header must end, its last line with its line feed, inside the bytes read so far.
     let local = Header::parse(&bytes).ok().filter(|h| {
-        h.get(&["ElementDataFile"])
-            .is_some_and(|(_, file)| file.eq_ignore_ascii_case("LOCAL"))
+        bytes.get(h.data_start.wrapping_sub(1)) == Some(&b'\n')
+            && h.get(&["ElementDataFile"])
+                .is_some_and(|(_, file)| file.eq_ignore_ascii_case("LOCAL"))
     });
     let (Some(h), true) = (local, size > bytes.len() as u64) else {
         // Small, or a header this reader does not stream: the whole file, parsed from memory.
@@ -556,6 +558,25 @@ mod tests {
             assert_eq!(streamed.buffer(), &VoxelBuffer::I16(voxels.clone()));
             assert_same_voxels(&streamed, &decode(&file, &path).unwrap());
         }
+    }
+
+    #[test]
+    fn a_header_whose_line_feed_falls_just_past_the_streamed_prefix_is_read_whole() {
+        // "ElementDataFile = LOCAL\r" ends the first 4,096 bytes and its line feed is the next
+        // byte: the voxels start after it, not where the prefix ends.
+        let (raw, voxels) = local_mha(false, |_| None);
+        let data = &raw[raw.windows(6).position(|w| w == b"LOCAL\n").unwrap() + 6..];
+        let start = "NDims = 3\nDimSize = 40 30 20\nElementType = MET_SHORT\n\
+                     ElementByteOrderMSB = True\nComment = ";
+        let end = "\nElementDataFile = LOCAL\r";
+        let padding = "x".repeat(HEADER_PREFIX as usize - start.len() - end.len());
+        let mut file = format!("{start}{padding}{end}\n").into_bytes();
+        assert_eq!(file.len(), HEADER_PREFIX as usize + 1);
+        file.extend_from_slice(data);
+        let dir = scratch_dir();
+        let path = dir.path().join("v.mha");
+        std::fs::write(&path, &file).unwrap();
+        assert_eq!(read(&path).unwrap().buffer(), &VoxelBuffer::I16(voxels));
     }
 
     #[test]
