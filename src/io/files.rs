@@ -1,7 +1,9 @@
 //! Whole-file reads and buffered writes, with errors that name the file.
 //!
-//! Readers parse from memory: one read of the whole file is the fastest buffered IO there is,
-//! and it lets every count in a header be checked against the bytes that really follow.
+//! Most readers parse from memory: one read of the whole file is the fastest buffered IO there
+//! is, and it lets every count in a header be checked against the bytes that really follow.
+//! The volume readers that stream (NIfTI, MetaImage's attached voxels) check against the
+//! file's size instead.
 
 use std::fs::File;
 use std::io::{BufWriter, Read, Write};

@@ -2,10 +2,12 @@
 //! NRRD, NIfTI-1, legacy VTK and VTK XML images, and a folder holding a DICOM series; VTK, VTP,
 //! PLY, STL, OBJ and OFF meshes.
 //!
-//! Every reader loads the whole file, checks each count it reads against the bytes that remain
-//! before allocating for it, and reports corrupt or truncated input as an error of kind
-//! `Format` that names the file and the place, never as a panic. Images are in ITK's LPS world
-//! space (docs/interfaces.md, "Coordinates").
+//! Every reader checks each count it reads against the bytes that remain before allocating for
+//! it, and reports corrupt or truncated input as an error of kind `Format` that names the file
+//! and the place, never as a panic. Most load the whole file and parse it from memory; NIfTI,
+//! and MetaImage voxels that follow their header, are streamed from the file into the image's
+//! buffer (checked against the file's size), so that a full-size volume is not held twice.
+//! Images are in ITK's LPS world space (docs/interfaces.md, "Coordinates").
 
 mod compression;
 pub(crate) mod files;
