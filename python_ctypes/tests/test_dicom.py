@@ -23,7 +23,6 @@ from conftest import CLI, assert_same_mesh, missing, read_vtp
 
 pydicom = pytest.importorskip("pydicom")
 sitk = pytest.importorskip("SimpleITK")
-Image = pytest.importorskip("PIL.Image")
 
 from pydicom.dataset import FileDataset, FileMetaDataset  # noqa: E402
 from pydicom.encaps import encapsulate  # noqa: E402
@@ -166,8 +165,9 @@ def encode(d: FileDataset, pixels: np.ndarray, transfer_syntax) -> None:
         d.PixelData = by_gdcm.PixelData
         d["PixelData"].VR = "OB"
     elif transfer_syntax == JPEGBaseline8Bit:
+        image = pytest.importorskip("PIL.Image")
         stream = io.BytesIO()
-        Image.fromarray(pixels).save(stream, "JPEG", quality=90)
+        image.fromarray(pixels).save(stream, "JPEG", quality=90)
         d.PixelData = encapsulate([stream.getvalue()])
         d["PixelData"].VR = "OB"
     else:
