@@ -19,7 +19,7 @@
 
 use std::borrow::Cow;
 use std::fs::File;
-use std::io::{BufRead, BufReader, Read};
+use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
 use std::path::Path;
 
 use super::compression::{inflate_voxels, zlib, VoxelData};
@@ -76,12 +76,15 @@ pub fn read(path: &Path) -> Result<Image> {
         return files::parse_file(path, |bytes| decode(bytes, path));
     };
     let data_len = size - h.data_start as u64;
-    let data = std::io::Cursor::new(&bytes[h.data_start..]).chain(file);
+    // From the file itself, not the bytes read so far chained before it: the inflater's first
+    // read must see both of gzip's magic bytes.
+    file.seek(SeekFrom::Start(h.data_start as u64))
+        .map_err(failed)?;
     let described = describe(&h).map_err(|e| e.context(path.display()))?;
     local_stream(
         &h,
         described,
-        BufReader::with_capacity(1 << 20, data),
+        BufReader::with_capacity(1 << 20, file),
         data_len,
     )
     .map_err(|e| e.context(path.display()))
