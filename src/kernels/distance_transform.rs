@@ -12,6 +12,7 @@ use rayon::prelude::*;
 
 use crate::allocation;
 use crate::error::Result;
+use crate::kernels::mask_voxels::MaskVoxels;
 
 /// A sample of a line: the value the envelope minimises, and what goes with the sample whose
 /// parabola is lowest at a point (nothing, or a label).
@@ -44,14 +45,90 @@ impl Sample for (f64, u32) {
 /// For each voxel of `mask`, its Euclidean distance (mm) to the nearest voxel outside it (0
 /// outside; a mask without outside voxels is as far as the grid is long).
 pub fn distance_to_outside(mask: &[bool], dims: [usize; 3], spacing: [f64; 3]) -> Result<Vec<f64>> {
+    let voxels = MaskVoxels::new(mask, dims)?;
+    let depth = depth_in_mask(&voxels, spacing)?;
+    voxels.scatter(depth, 0.0, "a distance map")
+}
+
+/// [`distance_to_outside`] at the mask's voxels only, in the mask's order. Outside the mask
+/// every pass leaves 0 (each outside voxel is its own nearest), so only the mask's voxels are
+/// kept between passes, and a pass gathers its lines into a slab's or a row's worth of
+/// buffer: the memory is the mask's, not the grid's.
+pub(crate) fn depth_in_mask(mask: &MaskVoxels, spacing: [f64; 3]) -> Result<Vec<f64>> {
+    let dims = mask.dims();
+    let [nx, ny, nz] = dims;
     let far = far(dims, spacing);
-    let mut distance = allocation::par_collect(
-        mask.par_iter().map(|&m| if m { far } else { 0.0 }),
-        "a distance map",
-    )?;
-    transform(&mut distance, dims, spacing);
-    distance.par_iter_mut().for_each(|d| *d = d.sqrt());
-    Ok(distance)
+    let mut squared = allocation::filled(mask.len(), far, "a distance map")?;
+    // Along x and y, slab by slab in a buffer of the slab.
+    mask.split_by_slab(&mut squared)
+        .into_par_iter()
+        .enumerate()
+        .filter(|(_, values)| !values.is_empty())
+        .for_each_init(
+            || {
+                (
+                    LowerEnvelope::with_capacity(nx.max(ny)),
+                    vec![0.0; nx * ny],
+                    vec![0.0; nx * ny],
+                )
+            },
+            |(envelope, plane, lines), (k, values)| {
+                let first = mask.slab(k).start;
+                let at = |c: usize| mask.voxel(c) - k * nx * ny;
+                plane.fill(0.0);
+                for (c, &v) in (first..).zip(values.iter()) {
+                    plane[at(c)] = v;
+                }
+                for row in plane.chunks_mut(nx) {
+                    envelope.transform(row, spacing[0]);
+                }
+                transform_strided_lines(envelope, plane, lines, nx, ny, spacing[1]);
+                for (c, v) in (first..).zip(values.iter_mut()) {
+                    *v = plane[at(c)];
+                }
+            },
+        );
+    // Along z, a row of lines at a time (all i for one j), gathered from every slab, a few
+    // rows at once, and scattered back slab by slab.
+    let batch = 2 * rayon::current_num_threads();
+    for first in (0..ny).step_by(batch) {
+        let rows = first..(first + batch).min(ny);
+        let columns: Vec<Vec<f64>> = rows
+            .clone()
+            .into_par_iter()
+            .map_init(
+                || LowerEnvelope::with_capacity(nz),
+                |envelope, j| {
+                    if (0..nz).all(|k| mask.row(j, k).is_empty()) {
+                        return Vec::new();
+                    }
+                    let mut lines = vec![0.0; nx * nz];
+                    for k in 0..nz {
+                        for c in mask.row(j, k) {
+                            lines[(mask.voxel(c) % nx) * nz + k] = squared[c];
+                        }
+                    }
+                    for line in lines.chunks_mut(nz) {
+                        envelope.transform(line, spacing[2]);
+                    }
+                    lines
+                },
+            )
+            .collect();
+        mask.split_by_slab(&mut squared)
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(k, values)| {
+                let start = mask.slab(k).start;
+                for (j, lines) in rows.clone().zip(&columns) {
+                    for c in mask.row(j, k) {
+                        values[c - start] = lines[(mask.voxel(c) % nx) * nz + k];
+                    }
+                }
+            });
+    }
+    squared.par_iter_mut().for_each(|d| *d = d.sqrt());
+    Ok(squared)
 }
 
 /// The label of each voxel's cell in the power diagram (Aurenhammer, "Power diagrams", SIAM J.

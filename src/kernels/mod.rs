@@ -10,6 +10,7 @@ pub mod digital_topology;
 pub(crate) mod disjoint_sets;
 pub mod distance_transform;
 pub mod marching_cubes;
+pub(crate) mod mask_voxels;
 pub mod mesh_checks;
 pub mod morphology;
 pub mod predicates;

@@ -33,6 +33,7 @@ use crate::disjoint_sets::DisjointSets;
 use crate::distance_transform;
 use crate::error::Result;
 use crate::geometry::Geometry;
+use crate::kernels::mask_voxels::MaskVoxels;
 use crate::mesh::TriMesh;
 use crate::morphology::{self, Grid};
 use crate::signed_distance::{signed_distance_values, SignedDistanceOptions};
@@ -206,8 +207,11 @@ pub(in crate::balloon) fn find_basins(
     spacing: [f64; 3],
     radius: f64,
 ) -> Result<(Vec<u32>, Vec<f64>)> {
-    let depth = distance_transform::distance_to_outside(mask, dims, spacing)?;
-    let (mut cores, thickness) = watershed(&depth, dims, radius, spacing[0])?;
+    // Depths and labels are kept at the mask's voxels only: the mask is a vessel tree in the
+    // box around it, a few per cent of the box.
+    let voxels = MaskVoxels::new(mask, dims)?;
+    let depth = distance_transform::depth_in_mask(&voxels, spacing)?;
+    let (mut cores, thickness) = watershed(&voxels, &depth, radius, spacing[0])?;
     // Each basin's core, the part deeper than its waists could be, grown back over the inside
     // (`grow_cores`).
     for (l, &d) in cores.iter_mut().zip(&depth) {
@@ -215,8 +219,8 @@ pub(in crate::balloon) fn find_basins(
             *l = u32::MAX;
         }
     }
-    let basins = grow_cores(mask, &depth, cores, dims, LEVEL_VOXELS * spacing[0])?;
-    Ok((basins, thickness))
+    let basins = grow_cores(&voxels, &depth, cores, LEVEL_VOXELS * spacing[0])?;
+    Ok((voxels.scatter(basins, u32::MAX, "the basins")?, thickness))
 }
 
 /// The basins of the balloon's inside `inside` with the voxels `earlier` cuts took (indices of
@@ -316,10 +320,10 @@ pub(in crate::balloon) fn voxel_of(p: DVec3, dims: [usize; 3]) -> Option<usize> 
     on_grid.then(|| r.x as usize + dims[0] * (r.y as usize + dims[1] * r.z as usize))
 }
 
-/// For each voxel of `inside`, the label of the core that reaches it first when the cores
-/// grow over the inside level by level down the distance map `depth`, `level_depth` mm at a
-/// time, and within each level along shortest paths (steps between 6-neighbours of the
-/// isotropic grid); `u32::MAX` outside and where no core is reached. A thin structure lying
+/// For each voxel of `inside` (`depth` and `cores` in its order), the label of the core that
+/// reaches it first when the cores grow over the inside level by level down the distance map
+/// `depth`, `level_depth` mm at a time, and within each level along shortest paths (steps
+/// between 6-neighbours of the isotropic grid); `u32::MAX` where no core is reached. A thin structure lying
 /// against a thick one (a renal vein on the aorta) has no core of its own where the two meet:
 /// grown along shortest paths alone, the thick one's core took the thin one's stretch beyond a
 /// pinhole between them and the thin one's basin began a cross-section further on, as if the
@@ -328,16 +332,14 @@ pub(in crate::balloon) fn voxel_of(p: DVec3, dims: [usize; 3]) -> Option<usize> 
 /// decide where two basins meet: shortest paths do. Ties go to the smaller label, so the
 /// partition is deterministic.
 fn grow_cores(
-    inside: &[bool],
+    inside: &MaskVoxels,
     depth: &[f64],
     cores: Vec<u32>,
-    dims: [usize; 3],
     level_depth: f64,
 ) -> Result<Vec<u32>> {
-    let grid = Grid(dims);
     let mut label = cores;
     let mut order = allocation::collect_counted(
-        (0..inside.len()).filter(|&n| inside[n] && label[n] == u32::MAX),
+        (0..inside.len()).filter(|&n| label[n] == u32::MAX),
         "the flood's order",
     )?;
     order.sort_unstable_by(|&a, &b| depth[b].total_cmp(&depth[a]).then(a.cmp(&b)));
@@ -355,7 +357,7 @@ fn grow_cores(
         let mut ring: Vec<usize> = waiting
             .iter()
             .copied()
-            .filter(|&n| grid.neighbours(n).any(|m| label[m] != u32::MAX))
+            .filter(|&n| inside.neighbours(n).any(|m| label[m] != u32::MAX))
             .collect();
         let mut next = Vec::new();
         while !ring.is_empty() {
@@ -364,7 +366,8 @@ fn grow_cores(
             let labels: Vec<u32> = ring
                 .iter()
                 .map(|&n| {
-                    grid.neighbours(n)
+                    inside
+                        .neighbours(n)
                         .map(|m| label[m])
                         .min()
                         .expect("next to a labelled voxel")
@@ -375,7 +378,8 @@ fn grow_cores(
             }
             for &n in &ring {
                 next.extend(
-                    grid.neighbours(n)
+                    inside
+                        .neighbours(n)
                         .filter(|&m| admitted[m] && label[m] == u32::MAX),
                 );
             }
@@ -390,29 +394,25 @@ fn grow_cores(
     Ok(label)
 }
 
-/// The watershed of the distance map `depth` (mm, 0 outside): a basin label per voxel
-/// (`u32::MAX` outside) and each basin's thickness (its deepest voxel's depth). Voxels are
+/// The watershed of the distance map `depth` (mm) of the voxels of `inside`: a basin label
+/// per voxel of `inside` and each basin's thickness (its deepest voxel's depth). Voxels are
 /// flooded from the deepest down, in a fixed order; a voxel next to one basin joins it, one
 /// next to several merges those whose saddle here is not a waist — shallower than [`SPLIT`]
 /// of the thinner one's thickness and by at least a `voxel` (a smaller dip is the grid's) —
 /// or where either is thinner than `min_thickness`, and joins the deepest.
 fn watershed(
+    inside: &MaskVoxels,
     depth: &[f64],
-    dims: [usize; 3],
     min_thickness: f64,
     voxel: f64,
 ) -> Result<(Vec<u32>, Vec<f64>)> {
-    let grid = Grid(dims);
-    let mut order = allocation::collect_counted(
-        (0..depth.len()).filter(|&n| depth[n] > 0.0),
-        "the watershed's order",
-    )?;
+    let mut order = allocation::collect(0..depth.len(), "the watershed's order")?;
     order.sort_unstable_by(|&a, &b| depth[b].total_cmp(&depth[a]).then(a.cmp(&b)));
     let mut label = allocation::filled(depth.len(), u32::MAX, "the watershed's labels")?;
     let mut sets = Basins::default();
     for n in order {
         let saddle = depth[n];
-        let mut around: Vec<u32> = grid
+        let mut around: Vec<u32> = inside
             .neighbours(n)
             .filter(|&m| label[m] != u32::MAX)
             .map(|m| sets.find(label[m]))
