@@ -26,6 +26,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 use robust::{orient2d, Coord};
 
+use crate::allocation;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::mesh::TriMesh;
@@ -36,23 +37,39 @@ use crate::mesh::TriMesh;
 /// inward-oriented mesh gives negative numbers). For a surface that is not closed the numbers are
 /// those of the rays along +i and are not meaningful.
 pub fn winding_numbers(mesh: &TriMesh, dims: [usize; 3], geometry: &Geometry) -> Result<Vec<i32>> {
+    per_voxel(mesh, dims, geometry, "winding numbers", |w| w)
+}
+
+/// `map` of the winding number of every voxel centre, summed slab by slab in a buffer of one
+/// slab: a mask needs a byte per voxel, not the four of a winding number.
+fn per_voxel<T: Copy + Default + Send>(
+    mesh: &TriMesh,
+    dims: [usize; 3],
+    geometry: &Geometry,
+    what: &str,
+    map: impl Fn(i32) -> T + Sync,
+) -> Result<Vec<T>> {
     let len = voxel_count(dims)?;
     let crossings = RowCrossings::new(mesh, dims, geometry);
-    let mut winding = vec![0i32; len];
-    winding
+    let mut values = allocation::filled(len, T::default(), what)?;
+    values
         .par_chunks_mut(dims[0] * dims[1])
         .enumerate()
-        .for_each(|(k, slab)| {
-            crossings.add_slab(k, slab);
-            for row in slab.chunks_mut(dims[0]) {
-                let mut after = 0;
-                for w in row.iter_mut().rev() {
-                    after += *w;
-                    *w = after;
+        .for_each_init(
+            || vec![0i32; dims[0] * dims[1]],
+            |crossed, (k, slab)| {
+                crossed.fill(0);
+                crossings.add_slab(k, crossed);
+                for (row, out) in crossed.chunks(dims[0]).zip(slab.chunks_mut(dims[0])) {
+                    let mut after = 0;
+                    for (w, v) in row.iter().zip(out).rev() {
+                        after += *w;
+                        *v = map(after);
+                    }
                 }
-            }
-        });
-    Ok(winding)
+            },
+        );
+    Ok(values)
 }
 
 /// The ray crossings of a mesh on the rows of a grid, to be added up slab by slab.
@@ -125,10 +142,7 @@ impl<'a> RowCrossings<'a> {
 /// Whether each voxel centre (i fastest) is inside the closed, outward-oriented `mesh`: winding
 /// number > 0, so regions where a self-intersecting mesh overlaps itself are inside too.
 pub fn inside_mask(mesh: &TriMesh, dims: [usize; 3], geometry: &Geometry) -> Result<Vec<bool>> {
-    Ok(winding_numbers(mesh, dims, geometry)?
-        .into_iter()
-        .map(|w| w > 0)
-        .collect())
+    per_voxel(mesh, dims, geometry, "an inside mask", |w| w > 0)
 }
 
 /// The number of voxels of a grid, or an error when a size is zero or the count overflows.

@@ -120,14 +120,15 @@ pub(crate) fn cut_touching(
         .iter()
         .filter_map(|&s| voxel_of(grid.world_to_index(s), dims))
         .collect();
-    let mut cut = allocation::filled(inside.len(), false, "the touching cut's mask")?;
     let (basins, thickness) = find_basins(&inside, dims, spacing, radius)?;
+    // Whether each voxel of the inside is cut, in the order of `basins`' voxels.
+    let mut cut = allocation::filled(basins.len(), false, "the touching cut's mask")?;
     let seed_basins = basins_of(&basins, &seed_voxels);
     // With one basin, or the seeds in parts too thin for a core of their own, there is nothing
     // to compare.
     if thickness.len() >= 2 && !seed_basins.is_empty() {
         let kept = joined_through_round_contacts(&basins, &thickness, &seed_basins, dims, &grid);
-        for (c, &b) in cut.iter_mut().zip(&basins) {
+        for (c, (_, b)) in cut.iter_mut().zip(basins.iter()) {
             *c = b != u32::MAX && !kept[b as usize];
         }
     }
@@ -146,15 +147,16 @@ pub(crate) fn cut_touching(
         // Each basin of the balloon's own without a seed goes with the structure seen whole
         // that most of it lies in.
         let mut share = vec![(0usize, 0usize); thickness.len()];
-        for (&b, &w) in basins.iter().zip(&whole).filter(|(&b, _)| b != u32::MAX) {
+        for (n, b) in basins.iter().filter(|&(_, b)| b != u32::MAX) {
+            let w = whole.at(n);
             share[b as usize].0 += usize::from(w != u32::MAX && again[w as usize]);
             share[b as usize].1 += 1;
         }
         let mut with_them = cut.clone();
-        for (c, &b) in with_them
+        for (c, (_, b)) in with_them
             .iter_mut()
-            .zip(&basins)
-            .filter(|(_, &b)| b != u32::MAX)
+            .zip(basins.iter())
+            .filter(|(_, (_, b))| *b != u32::MAX)
         {
             let (in_cut, all) = share[b as usize];
             *c |= !seed_basins.contains(&b) && 2 * in_cut > all;
@@ -164,7 +166,10 @@ pub(crate) fn cut_touching(
             cut = with_them;
         }
     }
-    let cut: Vec<usize> = (0..cut.len()).filter(|&n| cut[n]).collect();
+    let cut: Vec<usize> = (0..cut.len())
+        .filter(|&c| cut[c])
+        .map(|c| basins.voxel(c))
+        .collect();
     if cut.is_empty() {
         return Ok(None);
     }
@@ -206,9 +211,7 @@ pub(in crate::balloon) fn find_basins(
     dims: [usize; 3],
     spacing: [f64; 3],
     radius: f64,
-) -> Result<(Vec<u32>, Vec<f64>)> {
-    // Depths and labels are kept at the mask's voxels only: the mask is a vessel tree in the
-    // box around it, a few per cent of the box.
+) -> Result<(BasinMap, Vec<f64>)> {
     let voxels = MaskVoxels::new(mask, dims)?;
     let depth = distance_transform::depth_in_mask(&voxels, spacing)?;
     let (mut cores, thickness) = watershed(&voxels, &depth, radius, spacing[0])?;
@@ -219,8 +222,38 @@ pub(in crate::balloon) fn find_basins(
             *l = u32::MAX;
         }
     }
-    let basins = grow_cores(&voxels, &depth, cores, LEVEL_VOXELS * spacing[0])?;
-    Ok((voxels.scatter(basins, u32::MAX, "the basins")?, thickness))
+    let labels = grow_cores(&voxels, &depth, cores, LEVEL_VOXELS * spacing[0])?;
+    Ok((BasinMap { voxels, labels }, thickness))
+}
+
+/// The basin of each voxel of a mask, kept at the mask's voxels only: the mask is a vessel tree
+/// in the box around it, a few per cent of the box.
+pub(in crate::balloon) struct BasinMap {
+    voxels: MaskVoxels,
+    labels: Vec<u32>,
+}
+
+impl BasinMap {
+    /// The basin of the grid's voxel `n`: `u32::MAX` outside the mask and in parts too thin for
+    /// a core.
+    pub fn at(&self, n: usize) -> u32 {
+        self.voxels.position(n).map_or(u32::MAX, |c| self.labels[c])
+    }
+
+    /// The mask's voxels, ascending, each with its basin.
+    pub fn iter(&self) -> impl Iterator<Item = (usize, u32)> + '_ {
+        (0..self.labels.len()).map(|c| (self.voxels.voxel(c), self.labels[c]))
+    }
+
+    /// The number of the mask's voxels.
+    pub fn len(&self) -> usize {
+        self.labels.len()
+    }
+
+    /// The grid index of the mask's `c`-th voxel.
+    pub fn voxel(&self, c: usize) -> usize {
+        self.voxels.voxel(c)
+    }
 }
 
 /// The basins of the balloon's inside `inside` with the voxels `earlier` cuts took (indices of
@@ -235,7 +268,7 @@ fn structures_cut_before(
     dims: [usize; 3],
     grid: &Geometry,
     geometry: &Geometry,
-) -> Result<(Vec<u32>, Vec<bool>)> {
+) -> Result<(BasinMap, Vec<bool>)> {
     let spacing = grid.spacing();
     let mut taken = allocation::filled(inside.len(), false, "the earlier cuts' mask")?;
     mark_voxels(&mut taken, dims, grid, geometry, earlier);
@@ -250,21 +283,17 @@ fn structures_cut_before(
     let seeded = basins_of(&whole, seed_voxels);
     let kept = joined_through_round_contacts(&whole, &thickness, &seeded, dims, grid);
     let mut again = vec![false; thickness.len()];
-    for (&w, _) in whole
-        .iter()
-        .zip(&taken)
-        .filter(|(&w, &t)| t && w != u32::MAX)
-    {
+    for (_, w) in whole.iter().filter(|&(n, w)| taken[n] && w != u32::MAX) {
         again[w as usize] = !kept[w as usize];
     }
     Ok((whole, again))
 }
 
 /// The basins of `voxels`, those in one.
-pub(in crate::balloon) fn basins_of(basins: &[u32], voxels: &[usize]) -> Vec<u32> {
+pub(in crate::balloon) fn basins_of(basins: &BasinMap, voxels: &[usize]) -> Vec<u32> {
     voxels
         .iter()
-        .map(|&n| basins[n])
+        .map(|&n| basins.at(n))
         .filter(|&b| b != u32::MAX)
         .collect()
 }
@@ -496,7 +525,7 @@ impl Basins {
 /// through its artery, the liver through a portal branch, a neighbour through a pinhole —
 /// while a branch is about as thick as its root.
 fn joined_through_round_contacts(
-    basins: &[u32],
+    basins: &BasinMap,
     thickness: &[f64],
     seeds: &[u32],
     dims: [usize; 3],
@@ -511,12 +540,9 @@ fn joined_through_round_contacts(
         spacing[0] * spacing[2],
         spacing[0] * spacing[1],
     ];
-    for (n, &a) in basins.iter().enumerate() {
-        if a == u32::MAX {
-            continue;
-        }
+    for (n, a) in basins.iter().filter(|&(_, a)| a != u32::MAX) {
         for m in voxels.neighbours(n).filter(|&m| m > n) {
-            let b = basins[m];
+            let b = basins.at(m);
             if b != u32::MAX && b != a {
                 let index = |v: usize| {
                     let (i, j, k) = voxels.coordinates(v);
@@ -660,7 +686,7 @@ fn neighbours_26(voxels: Grid, n: usize) -> impl Iterator<Item = usize> {
 /// as far as across it. A tube touched on its wall runs on past the contact both ways; a
 /// branch leaves the contact across it, and so does a trunk's own lumen from a stenosis.
 fn meets_on_its_side(
-    basins: &[u32],
+    basins: &BasinMap,
     basin: u32,
     contact: &Moments,
     reach: f64,
@@ -683,7 +709,7 @@ fn meets_on_its_side(
     for k in range(2) {
         for j in range(1) {
             for i in range(0) {
-                if basins[i + dims[0] * (j + dims[1] * k)] != basin {
+                if basins.at(i + dims[0] * (j + dims[1] * k)) != basin {
                     continue;
                 }
                 let p = grid.index_to_world(DVec3::new(i as f64, j as f64, k as f64));
@@ -990,7 +1016,7 @@ mod tests {
             "the pinhole joins them"
         );
         let (basins, thickness) = find_basins(&mask, dims, [1.0; 3], 2.0).unwrap();
-        let at = |i: usize, j: usize| basins[i + dims[0] * (j + dims[1] * 15)];
+        let at = |i: usize, j: usize| basins.at(i + dims[0] * (j + dims[1] * 15));
         let (ball, end) = (at(14, 16), at(48, 28));
         assert_eq!(thickness.len(), 2, "{thickness:?}");
         assert_ne!(ball, end);

@@ -26,7 +26,7 @@ use glam::DVec3;
 
 use crate::balloon::fast_hash::FastHash;
 
-use crate::balloon::finishing::touching::{basins_of, find_basins, voxel_of};
+use crate::balloon::finishing::touching::{basins_of, find_basins, voxel_of, BasinMap};
 use crate::balloon::reparametrization::isosurface::{
     covering_grid, isosurface, keep_seeded_components, without_cavities,
 };
@@ -76,8 +76,8 @@ pub(super) fn repartition(
     let claimed = claim_basins(&basins, thickness.len(), seeds, &grid, dims);
     let claims: Vec<u32> = owner
         .iter()
-        .zip(&basins)
-        .map(|(&o, &b)| match claimed.get(b as usize) {
+        .enumerate()
+        .map(|(n, &o)| match claimed.get(basins.at(n) as usize) {
             Some(&k) if k != NOBODY && o != NOBODY => k,
             _ => o,
         })
@@ -149,7 +149,7 @@ fn between_objects(
 /// (voxel faces between them), never joining two objects' basins: a tube's own parts meet across
 /// its whole cross-section, two tubes across the patch where they touch.
 fn claim_basins(
-    basins: &[u32],
+    basins: &BasinMap,
     count: usize,
     seeds: &[&[DVec3]],
     grid: &Geometry,
@@ -177,9 +177,9 @@ fn claim_basins(
     }
     let mut faces: HashMap<(u32, u32), usize, FastHash> = HashMap::default();
     let voxels = Grid(dims);
-    for (n, &a) in basins.iter().enumerate().filter(|(_, &a)| a != NOBODY) {
+    for (n, a) in basins.iter().filter(|&(_, a)| a != NOBODY) {
         for m in voxels.neighbours(n).filter(|&m| m > n) {
-            let b = basins[m];
+            let b = basins.at(m);
             if b != NOBODY && b != a {
                 *faces.entry((a.min(b), a.max(b))).or_default() += 1;
             }
