@@ -8,7 +8,7 @@ use std::ops::Range;
 
 use crate::allocation;
 use crate::error::Result;
-use crate::morphology::Grid;
+use crate::morphology::{self, Grid};
 
 pub(crate) struct MaskVoxels {
     dims: [usize; 3],
@@ -21,19 +21,29 @@ pub(crate) struct MaskVoxels {
 impl MaskVoxels {
     /// The voxels where `mask` (i fastest, `dims`) holds.
     pub fn new(mask: &[bool], dims: [usize; 3]) -> Result<Self> {
-        let [nx, ny, nz] = dims;
-        debug_assert_eq!(mask.len(), nx * ny * nz);
+        debug_assert_eq!(mask.len(), dims.iter().product::<usize>());
+        Self::where_true(dims, |n| mask[n])
+    }
+
+    /// The voxels `n` of a grid of `dims` for which `holds(n)`.
+    pub fn where_true(dims: [usize; 3], holds: impl Fn(usize) -> bool) -> Result<Self> {
+        let len = dims.iter().product();
         let voxels =
-            allocation::collect_counted((0..mask.len()).filter(|&n| mask[n]), "a mask's voxels")?;
-        let mut row_start = allocation::with_capacity(ny * nz + 1, "a mask's rows")?;
-        row_start.push(0);
-        if nx > 0 {
-            row_start.extend(mask.chunks(nx).scan(0, |count, row| {
-                *count += row.iter().filter(|&&m| m).count();
-                Some(*count)
-            }));
+            allocation::collect_counted((0..len).filter(|&n| holds(n)), "a mask's voxels")?;
+        Self::from_sorted(voxels, dims)
+    }
+
+    /// The voxels `voxels` (grid indices, ascending, without repeats) of a grid of `dims`.
+    pub fn from_sorted(voxels: Vec<usize>, dims: [usize; 3]) -> Result<Self> {
+        let [nx, ny, nz] = dims;
+        debug_assert!(voxels.windows(2).all(|w| w[0] < w[1]));
+        let mut row_start = allocation::filled(ny * nz + 1, 0, "a mask's rows")?;
+        for &n in &voxels {
+            row_start[n / nx + 1] += 1;
         }
-        row_start.resize(ny * nz + 1, voxels.len());
+        for r in 0..ny * nz {
+            row_start[r + 1] += row_start[r];
+        }
         Ok(MaskVoxels {
             dims,
             voxels,
@@ -79,6 +89,12 @@ impl MaskVoxels {
         Grid(self.dims)
             .neighbours(self.voxels[c])
             .filter_map(|m| self.position(m))
+    }
+
+    /// The 6-connected components of the mask: a label per voxel (in the mask's order),
+    /// numbered in the order of their first voxel, and how many there are.
+    pub fn components(&self) -> (Vec<u32>, u32) {
+        morphology::label_components(self.len(), |_| true, |c| self.neighbours(c))
     }
 
     /// `values` (one per voxel of the mask, in its order) cut into the runs of each slab.
@@ -159,6 +175,24 @@ mod tests {
             .scatter(vec![true; voxels.len()], false, "a test")
             .unwrap();
         assert_eq!(grid, mask);
+        let listed =
+            MaskVoxels::from_sorted((0..mask.len()).filter(|&n| mask[n]).collect(), dims).unwrap();
+        assert_eq!(listed.row_start, voxels.row_start);
+    }
+
+    #[test]
+    fn components_are_those_of_the_grid_in_the_same_order() {
+        let dims = [9, 8, 7];
+        let mask = scattered(dims);
+        let voxels = MaskVoxels::new(&mask, dims).unwrap();
+        let (labels, count) = voxels.components();
+        let (expected, expected_count) = morphology::components(&mask, dims);
+        assert_eq!(count, expected_count);
+        assert!(count > 3, "a mask of several pieces: {count}");
+        assert_eq!(
+            voxels.scatter(labels, u32::MAX, "a test").unwrap(),
+            expected
+        );
     }
 
     #[test]

@@ -67,18 +67,29 @@ pub fn erode(mask: &[bool], dims: [usize; 3], spacing: [f64; 3], radius_mm: f64)
 /// numbered in the order of their first voxel, and how many there are.
 pub fn components(mask: &[bool], dims: [usize; 3]) -> (Vec<u32>, u32) {
     let grid = Grid(dims);
-    let mut labels = vec![u32::MAX; mask.len()];
+    label_components(mask.len(), |n| mask[n], |n| grid.neighbours(n))
+}
+
+/// The connected components of the nodes `0..len` that are `member`s, joined along
+/// `neighbours`: a label per node (`u32::MAX` for the others), numbered in the order of their
+/// first node, and how many there are.
+pub(crate) fn label_components<I: Iterator<Item = usize>>(
+    len: usize,
+    member: impl Fn(usize) -> bool,
+    neighbours: impl Fn(usize) -> I,
+) -> (Vec<u32>, u32) {
+    let mut labels = vec![u32::MAX; len];
     let mut count = 0;
     let mut stack = Vec::new();
-    for start in 0..mask.len() {
-        if !mask[start] || labels[start] != u32::MAX {
+    for start in 0..len {
+        if !member(start) || labels[start] != u32::MAX {
             continue;
         }
         labels[start] = count;
         stack.push(start);
         while let Some(n) = stack.pop() {
-            for m in grid.neighbours(n) {
-                if mask[m] && labels[m] == u32::MAX {
+            for m in neighbours(n) {
+                if member(m) && labels[m] == u32::MAX {
                     labels[m] = count;
                     stack.push(m);
                 }

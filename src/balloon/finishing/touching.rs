@@ -173,6 +173,8 @@ pub(crate) fn cut_touching(
     if cut.is_empty() {
         return Ok(None);
     }
+    // The field below is a value per voxel of the box: the masks go first.
+    drop((inside, basins));
     // The cut voxels become as far outside as the band reaches, so that the new surface
     // crosses half-way between them and the kept voxels, on the boundary of the basins.
     let options = SignedDistanceOptions { band_voxels: 1.0 };
@@ -196,7 +198,7 @@ pub(crate) fn cut_touching(
     if let Some(free_depth) = free_depth {
         keep_inside_free_space(&mut field, dims, &grid, free_depth);
     }
-    keep_seeded_components(&mut field, dims, &grid, seeds);
+    keep_seeded_components(&mut field, dims, &grid, seeds)?;
     Ok(Some(Cut {
         mesh: without_cavities(isosurface(field, dims, &grid, 0.0)?, voxel_volume),
         removed,

@@ -110,7 +110,7 @@ pub(super) fn repartition(
                 *value = outside;
             }
         }
-        keep_seeded_components(&mut field, dims, &grid, seeds[i]);
+        keep_seeded_components(&mut field, dims, &grid, seeds[i])?;
         repartitioned.push(without_cavities(
             isosurface(field, dims, &grid, 0.0)?,
             voxel_volume,

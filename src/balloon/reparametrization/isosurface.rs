@@ -32,6 +32,7 @@ use crate::balloon::surface::VertexState;
 use crate::digital_topology::euler_characteristic;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
+use crate::kernels::mask_voxels::MaskVoxels;
 use crate::marching_cubes::marching_cubes;
 use crate::mesh::TriMesh;
 use crate::mesh_checks;
@@ -93,11 +94,11 @@ pub(crate) fn reparametrize(
     let options = SignedDistanceOptions { band_voxels: 1.0 };
     let (grid, dims) = covering_grid(mesh, geometry, MARGIN_VOXELS)?;
     let mut field = signed_distance_values(&surface, mesh, dims, &grid, &options)?;
-    fill_passable_gaps(&mut field, dims, &grid, keep.passable);
+    fill_passable_gaps(&mut field, dims, &grid, keep.passable)?;
     if let Some(free_depth) = keep.free_depth {
         keep_inside_free_space(&mut field, dims, &grid, free_depth);
     }
-    keep_seeded_components(&mut field, dims, &grid, keep.seeds);
+    keep_seeded_components(&mut field, dims, &grid, keep.seeds)?;
     let voxel: f64 = geometry.spacing().iter().product();
     Ok(without_cavities(
         isosurface(field, dims, &grid, 0.0)?,
@@ -128,33 +129,31 @@ fn fill_passable_gaps(
     dims: [usize; 3],
     grid: &Geometry,
     passable: &(dyn Fn(DVec3) -> bool + Sync),
-) {
+) -> Result<()> {
     let mut inside: Vec<bool> = field.iter().map(|&v| v < 0.0).collect();
     let radius = CLOSING_VOXELS * grid.min_spacing();
     let added = morphology::close(&mut inside, dims, grid.spacing(), radius);
     if added.is_empty() {
-        return;
+        return Ok(());
     }
-    let mut gap = vec![false; field.len()];
-    for &n in &added {
-        gap[n] = true;
-    }
-    let (labels, count) = morphology::components(&gap, dims);
-    let blocked: Vec<u32> = added
-        .par_iter()
-        .filter(|&&n| !passable(grid.index_to_world(grid_point(n, dims))))
-        .map(|&n| labels[n])
+    let gap = MaskVoxels::from_sorted(added, dims)?;
+    let (labels, count) = gap.components();
+    let blocked: Vec<u32> = (0..gap.len())
+        .into_par_iter()
+        .filter(|&c| !passable(grid.index_to_world(grid_point(gap.voxel(c), dims))))
+        .map(|c| labels[c])
         .collect();
     let mut fill = vec![true; count as usize];
     for label in blocked {
         fill[label as usize] = false;
     }
     let depth = -0.5 * grid.min_spacing();
-    for n in added {
-        if fill[labels[n] as usize] {
-            field[n] = depth;
+    for (c, &label) in labels.iter().enumerate() {
+        if fill[label as usize] {
+            field[gap.voxel(c)] = depth;
         }
     }
+    Ok(())
 }
 
 /// Moves the inside of `field` out of what the region of interest and the other objects take
@@ -181,11 +180,12 @@ pub(in crate::balloon) fn keep_seeded_components(
     dims: [usize; 3],
     grid: &Geometry,
     seeds: &[DVec3],
-) {
-    let inside: Vec<bool> = field.iter().map(|&v| v < 0.0).collect();
-    let (labels, count) = morphology::components(&inside, dims);
+) -> Result<()> {
+    // The inside is a vessel tree in the box around it: its voxels alone are labelled.
+    let inside = MaskVoxels::where_true(dims, |n| field[n] < 0.0)?;
+    let (labels, count) = inside.components();
     if count <= 1 {
-        return;
+        return Ok(());
     }
     let mut kept = vec![false; count as usize];
     for &seed in seeds {
@@ -198,17 +198,16 @@ pub(in crate::balloon) fn keep_seeded_components(
                     (n / 9 - 1) as f64,
                 );
             if (0..3).all(|a| p[a] >= 0.0 && p[a] < dims[a] as f64) {
-                let label =
-                    labels[p.x as usize + dims[0] * (p.y as usize + dims[1] * p.z as usize)];
-                if label != u32::MAX {
-                    kept[label as usize] = true;
+                let n = p.x as usize + dims[0] * (p.y as usize + dims[1] * p.z as usize);
+                if let Some(c) = inside.position(n) {
+                    kept[labels[c] as usize] = true;
                 }
             }
         }
     }
     if !kept.contains(&true) {
         let mut sizes = vec![0usize; count as usize];
-        for &l in labels.iter().filter(|&&l| l != u32::MAX) {
+        for &l in &labels {
             sizes[l as usize] += 1;
         }
         let largest = (0..sizes.len())
@@ -217,11 +216,12 @@ pub(in crate::balloon) fn keep_seeded_components(
         kept[largest] = true;
     }
     let outside = 0.5 * grid.min_spacing();
-    for (value, &label) in field.iter_mut().zip(&labels) {
-        if label != u32::MAX && !kept[label as usize] {
-            *value = outside;
+    for (c, &label) in labels.iter().enumerate() {
+        if !kept[label as usize] {
+            field[inside.voxel(c)] = outside;
         }
     }
+    Ok(())
 }
 
 fn grid_point(n: usize, dims: [usize; 3]) -> DVec3 {
