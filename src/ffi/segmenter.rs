@@ -299,8 +299,9 @@ pub unsafe extern "C" fn balloon_reparametrize(s: *mut BalloonSegmenter) -> Ball
 /// The whole method to completion; balloon_mesh then gives the closed, 2-manifold, outward
 /// surface without self-intersections.
 ///
-/// Memory (the voxels are borrowed): about 30 bytes per voxel of the grids laid over the
-/// balloon at the volume's finest spacing, plus the balloon, which max_vertices caps. A buffer
+/// Memory (the voxels are borrowed): about 10 bytes per voxel of a grid laid over the
+/// balloon's bounding box at the volume's finest spacing, plus the balloon, which max_vertices
+/// caps. A buffer
 /// that cannot be allocated gives BALLOON_OUT_OF_MEMORY; the handle keeps its last completed
 /// step and stays usable.
 ///
