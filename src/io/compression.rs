@@ -169,6 +169,42 @@ pub(crate) fn inflate_voxels(
     }
 }
 
+/// `count` voxels of `scalar` streamed from `data` (`len` bytes) into their buffer: through
+/// [`inflate_voxels`] when `compressed`, else read as they are after `skip` bytes, reporting
+/// the reading to the progress sink.
+pub(crate) fn stream_voxels(
+    mut data: impl BufRead,
+    len: u64,
+    compressed: bool,
+    skip: usize,
+    scalar: ScalarType,
+    count: usize,
+    little_endian: bool,
+) -> Result<VoxelBuffer> {
+    if compressed {
+        let len = usize::try_from(len).unwrap_or(usize::MAX);
+        return inflate_voxels(data, len, skip, scalar, count, little_endian);
+    }
+    let needed = count
+        .checked_mul(scalar.size_in_bytes())
+        .and_then(|bytes| bytes.checked_add(skip))
+        .ok_or_else(|| Error::format("the header's sizes are impossibly large"))?;
+    if needed as u64 > len {
+        return Err(Error::format(format!(
+            "the voxel data holds {len} bytes but the header's sizes, type and skip need \
+             {needed}: the file is truncated or its header is wrong"
+        )));
+    }
+    std::io::copy(&mut (&mut data).take(skip as u64), &mut std::io::sink())
+        .map_err(|e| Error::io(format!("cannot read the voxel data ({e})")))?;
+    let mut source = Reported::new(data, len - skip as u64, ReadStage::Reading);
+    let read = VoxelBuffer::read_from(scalar, count, little_endian, &mut source);
+    match source.cancelled() {
+        Some(cancelled) => Err(cancelled),
+        None => read,
+    }
+}
+
 fn compress_error(e: std::io::Error) -> Error {
     Error::io(format!("cannot compress the voxel data: {e}"))
 }

@@ -18,26 +18,20 @@
 //! header there and the compressed data beside it in `<stem>.zraw`.
 
 use std::borrow::Cow;
-use std::fs::File;
-use std::io::{BufRead, BufReader, Read, Seek, SeekFrom};
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 
-use super::compression::{inflate_voxels, zlib, VoxelData};
-use super::files;
-use super::progress::{ReadStage, Reported};
+use super::compression::{stream_voxels, zlib, VoxelData};
+use super::files::{self, HeaderPrefix};
 use super::text_header::{
     beside, byte_count, concatenate_parts, fmt_list, geometry, has_suffix, line_at, lines_from,
     number, numbers, sizes, take_bytes,
 };
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
-use crate::volume::{Image, ScalarType, VoxelBuffer};
+use crate::volume::{Image, ScalarType};
 
 /// MetaIO's element type names, the first name of each type being the one written.
-/// The bytes read first, in which a header to stream the voxels after must end: MetaImage
-/// headers take a few hundred bytes.
-const HEADER_PREFIX: u64 = 4096;
-
 const ELEMENT_TYPES: [(&str, ScalarType); 10] = [
     ("MET_UCHAR", ScalarType::U8),
     ("MET_CHAR", ScalarType::I8),
@@ -55,39 +49,21 @@ const ELEMENT_TYPES: [(&str, ScalarType); 10] = [
 /// are streamed from the file into the image's buffer, through the inflater when compressed,
 /// so that the file's bytes are never held beside them; other layouts are read whole.
 pub fn read(path: &Path) -> Result<Image> {
-    let failed =
-        |e: std::io::Error| Error::io(format!("{}: cannot read the file: {e}", path.display()));
-    let mut file = File::open(path).map_err(failed)?;
-    let size = file.metadata().map_err(failed)?.len();
-    let mut bytes = Vec::new();
-    (&mut file)
-        .take(HEADER_PREFIX)
-        .read_to_end(&mut bytes)
-        .map_err(failed)?;
+    let prefix = HeaderPrefix::open(path)?;
     // The header must end, its last line with its line feed, inside the bytes read so far.
-    let local = Header::parse(&bytes).ok().filter(|h| {
-        bytes.get(h.data_start.wrapping_sub(1)) == Some(&b'\n')
+    let local = Header::parse(&prefix.bytes).ok().filter(|h| {
+        prefix.bytes.get(h.data_start.wrapping_sub(1)) == Some(&b'\n')
             && h.get(&["ElementDataFile"])
                 .is_some_and(|(_, file)| file.eq_ignore_ascii_case("LOCAL"))
     });
-    let (Some(h), true) = (local, size > bytes.len() as u64) else {
+    let (Some(h), false) = (local, prefix.is_whole_file()) else {
         // Small, or a header this reader does not stream: the whole file, parsed from memory.
-        drop(file);
+        drop(prefix);
         return files::parse_file(path, |bytes| decode(bytes, path));
     };
-    let data_len = size - h.data_start as u64;
-    // From the file itself, not the bytes read so far chained before it: the inflater's first
-    // read must see both of gzip's magic bytes.
-    file.seek(SeekFrom::Start(h.data_start as u64))
-        .map_err(failed)?;
     let described = describe(&h).map_err(|e| e.context(path.display()))?;
-    local_stream(
-        &h,
-        described,
-        BufReader::with_capacity(1 << 20, file),
-        data_len,
-    )
-    .map_err(|e| e.context(path.display()))
+    let (data, data_len) = prefix.data_from(h.data_start)?;
+    local_stream(&h, described, data, data_len).map_err(|e| e.context(path.display()))
 }
 
 /// What the header says of the voxels: sizes, type and byte order, and the geometry.
@@ -111,8 +87,7 @@ fn local_stream(
         big_endian,
         geometry,
     } = described;
-    let expected = byte_count(dims, scalar)?;
-    let count = expected / scalar.size_in_bytes();
+    let count = byte_count(dims, scalar)? / scalar.size_in_bytes();
     let buffer = if h.flag(&["CompressedData"])?.unwrap_or(false) {
         let stream_len = match h.parsed::<u64>("CompressedDataSize")? {
             Some(n) if n > data_len => {
@@ -125,21 +100,9 @@ fn local_stream(
             None => data_len,
         };
         let stream = BufReader::new(data.take(stream_len));
-        let stream_len = usize::try_from(stream_len).unwrap_or(usize::MAX);
-        inflate_voxels(stream, stream_len, 0, scalar, count, !big_endian)?
+        stream_voxels(stream, stream_len, true, 0, scalar, count, !big_endian)?
     } else {
-        if (expected as u64) > data_len {
-            return Err(Error::format(format!(
-                "the voxel data holds {data_len} bytes but the header's sizes and type need \
-                 {expected}: the file is truncated or its header is wrong"
-            )));
-        }
-        let mut source = Reported::new(data, data_len, ReadStage::Reading);
-        let read = VoxelBuffer::read_from(scalar, count, !big_endian, &mut source);
-        if let Some(cancelled) = source.cancelled() {
-            return Err(cancelled);
-        }
-        read?
+        stream_voxels(data, data_len, false, 0, scalar, count, !big_endian)?
     };
     Image::new(buffer, dims, geometry)
 }
@@ -572,9 +535,9 @@ mod tests {
         let start = "NDims = 3\nDimSize = 40 30 20\nElementType = MET_SHORT\n\
                      ElementByteOrderMSB = True\nComment = ";
         let end = "\nElementDataFile = LOCAL\r";
-        let padding = "x".repeat(HEADER_PREFIX as usize - start.len() - end.len());
+        let padding = "x".repeat(files::HEADER_PREFIX as usize - start.len() - end.len());
         let mut file = format!("{start}{padding}{end}\n").into_bytes();
-        assert_eq!(file.len(), HEADER_PREFIX as usize + 1);
+        assert_eq!(file.len(), files::HEADER_PREFIX as usize + 1);
         file.extend_from_slice(data);
         let dir = scratch_dir();
         let path = dir.path().join("v.mha");

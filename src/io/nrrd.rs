@@ -20,8 +20,8 @@
 use std::borrow::Cow;
 use std::path::Path;
 
-use super::compression::{gzip, VoxelData};
-use super::files;
+use super::compression::{gzip, stream_voxels, VoxelData};
+use super::files::{self, HeaderPrefix};
 use super::text_header::{
     axes_of, beside, byte_count, concatenate_parts, fmt_list, geometry, geometry_from_axes,
     has_suffix, line_at, lines_from, number, numbers, sizes, take_bytes,
@@ -67,9 +67,45 @@ const TYPES: [(&str, ScalarType); 32] = [
     ("float64", ScalarType::F64),
 ];
 
-/// Reads a `.nrrd` or `.nhdr` image.
+/// Reads a `.nrrd` or `.nhdr` image. Voxels attached after the header (with no `line skip`,
+/// and a `byte skip` other than -1) are streamed from the file into the image's buffer, through
+/// the inflater when gzip-encoded, so that the file's bytes are never held beside them; other
+/// layouts are read whole.
 pub fn read(path: &Path) -> Result<Image> {
-    files::parse_file(path, |bytes| decode(bytes, path))
+    let prefix = HeaderPrefix::open(path)?;
+    // The header must end, its blank line with its line feed, inside the bytes read so far.
+    let attached = Header::parse(&prefix.bytes).ok().and_then(|h| {
+        let start = h.data_start.filter(|&start| start < prefix.bytes.len())?;
+        let skip = h
+            .parsed::<usize>("byteskip", "byte skip")
+            .ok()?
+            .unwrap_or(0);
+        let lines = h
+            .parsed::<usize>("lineskip", "line skip")
+            .ok()?
+            .unwrap_or(0);
+        (h.get("datafile").is_none() && lines == 0).then_some((h, start, skip))
+    });
+    let (Some((h, start, skip)), false) = (attached, prefix.is_whole_file()) else {
+        drop(prefix);
+        return files::parse_file(path, |bytes| decode(bytes, path));
+    };
+    let context = |e: Error| e.context(path.display());
+    let d = describe(&h).map_err(context)?;
+    let compressed = is_gzip(&h).map_err(context)?;
+    let count = byte_count(d.dims, d.scalar).map_err(context)? / d.scalar.size_in_bytes();
+    let (data, len) = prefix.data_from(start)?;
+    let buffer = stream_voxels(
+        data,
+        len,
+        compressed,
+        skip,
+        d.scalar,
+        count,
+        d.little_endian,
+    )
+    .map_err(context)?;
+    Image::new(buffer, d.dims, d.geometry)
 }
 
 /// Writes `image` gzip-encoded in LPS space: after the header for `.nrrd`, in a `.raw.gz` file
@@ -200,6 +236,21 @@ impl Header {
 
 pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
     let h = Header::parse(bytes)?;
+    let d = describe(&h)?;
+    let expected = byte_count(d.dims, d.scalar)?;
+    let buffer = voxel_data(&h, bytes, path, expected)?.into_buffer(d.scalar, d.little_endian)?;
+    Image::new(buffer, d.dims, d.geometry)
+}
+
+/// What the header says of the voxels: sizes, type and byte order, and the geometry.
+struct Described {
+    dims: [usize; 3],
+    scalar: ScalarType,
+    little_endian: bool,
+    geometry: Geometry,
+}
+
+fn describe(h: &Header) -> Result<Described> {
     let type_name = h.require("type", "type")?;
     let scalar = TYPES
         .iter()
@@ -219,7 +270,7 @@ pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
         )));
     }
     let all_sizes = sizes("sizes", h.require("sizes", "sizes")?, dimension)?;
-    let space = Space::of(&h)?;
+    let space = Space::of(h)?;
     let directions = match h.get("spacedirections") {
         Some(value) => Some(space_directions(value, dimension, space.dimension)?),
         None => None,
@@ -230,7 +281,7 @@ pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
         all_sizes[spatial[1]],
         spatial.get(2).map_or(1, |&a| all_sizes[a]),
     ];
-    let geometry = read_geometry(&h, &space, directions.as_deref(), &spatial, dimension)?;
+    let geometry = read_geometry(h, &space, directions.as_deref(), &spatial, dimension)?;
     let little_endian = match h.get("endian") {
         Some(e) if e.eq_ignore_ascii_case("little") => true,
         Some(e) if e.eq_ignore_ascii_case("big") => false,
@@ -247,9 +298,12 @@ pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
             )))
         }
     };
-    let expected = byte_count(dims, scalar)?;
-    let buffer = voxel_data(&h, bytes, path, expected)?.into_buffer(scalar, little_endian)?;
-    Image::new(buffer, dims, geometry)
+    Ok(Described {
+        dims,
+        scalar,
+        little_endian,
+        geometry,
+    })
 }
 
 /// The world frame of the header: its dimension and which axes to negate to reach LPS.
@@ -456,16 +510,7 @@ fn voxel_data<'a>(
     path: &Path,
     expected: usize,
 ) -> Result<VoxelData<'a>> {
-    let encoding = h.require("encoding", "encoding")?.to_ascii_lowercase();
-    let compressed = match encoding.as_str() {
-        "raw" => false,
-        "gzip" | "gz" => true,
-        _ => {
-            return Err(Error::format(format!(
-                "encoding: {encoding} is not supported; use raw or gzip"
-            )))
-        }
-    };
+    let compressed = is_gzip(h)?;
     let skip = Skip {
         lines: h.parsed("lineskip", "line skip")?.unwrap_or(0),
         bytes: h.parsed("byteskip", "byte skip")?.unwrap_or(0),
@@ -496,6 +541,18 @@ fn voxel_data<'a>(
         .apply(&file, expected)
         .map_err(|e| e.context(data_file))?;
     Ok(part.into_owned())
+}
+
+/// Whether the data is gzip-encoded (else raw).
+fn is_gzip(h: &Header) -> Result<bool> {
+    let encoding = h.require("encoding", "encoding")?.to_ascii_lowercase();
+    match encoding.as_str() {
+        "raw" => Ok(false),
+        "gzip" | "gz" => Ok(true),
+        _ => Err(Error::format(format!(
+            "encoding: {encoding} is not supported; use raw or gzip"
+        ))),
+    }
 }
 
 struct Skip {
@@ -754,6 +811,74 @@ mod tests {
         }
         let e = decode(b"P5\n", Path::new("x.nrrd")).unwrap_err();
         assert!(e.message().contains("not a NRRD file"), "{e}");
+    }
+
+    /// A 40×30×20 int16 .nrrd (48 KB of voxels, past the streamed header prefix), big-endian,
+    /// raw or gzip-encoded, with `byte_skip` bytes before the voxels (inflated ones, for gzip).
+    fn attached_nrrd(gzip_encoded: bool, byte_skip: usize) -> (Vec<u8>, Vec<i16>) {
+        let voxels: Vec<i16> = (0..24_000).map(|n| (n * 37 % 5000 - 2500) as i16).collect();
+        let mut raw = vec![0xab; byte_skip];
+        raw.extend(voxels.iter().flat_map(|v| v.to_be_bytes()));
+        let (encoding, data) = if gzip_encoded {
+            ("gzip", gzip(&raw).unwrap())
+        } else {
+            ("raw", raw)
+        };
+        let header = format!(
+            "NRRD0004\ntype: short\ndimension: 3\nsizes: 40 30 20\nspacings: 0.7 0.8 2.5\n\
+             endian: big\nencoding: {encoding}\nbyte skip: {byte_skip}\n\n"
+        );
+        (attached(&header, &data), voxels)
+    }
+
+    #[test]
+    fn attached_voxels_are_streamed_from_the_file_as_they_are_parsed_from_memory() {
+        let dir = scratch_dir();
+        let path = dir.path().join("v.nrrd");
+        for (gzip_encoded, skip) in [(false, 0), (false, 13), (true, 0), (true, 13)] {
+            let (file, voxels) = attached_nrrd(gzip_encoded, skip);
+            std::fs::write(&path, &file).unwrap();
+            let streamed = read(&path).unwrap();
+            assert_eq!(streamed.buffer(), &VoxelBuffer::I16(voxels));
+            let parsed = decode(&file, &path).unwrap();
+            assert_same_voxels(&streamed, &parsed);
+            assert_geometry_close(streamed.geometry(), parsed.geometry(), 0.0);
+        }
+    }
+
+    #[test]
+    fn a_header_whose_blank_line_ends_just_past_the_streamed_prefix_is_read_whole() {
+        // The blank line is "\r\n" with its "\r" the prefix's last byte: the voxels start
+        // after the line feed, not where the prefix ends.
+        let (file, voxels) = attached_nrrd(false, 0);
+        let data = &file[file.windows(2).position(|w| w == b"\n\n").unwrap() + 2..];
+        let start = "NRRD0004\ntype: short\ndimension: 3\nsizes: 40 30 20\nendian: big\n\
+                     encoding: raw\n# ";
+        let padding = "x".repeat(files::HEADER_PREFIX as usize - start.len() - 2);
+        let mut file = format!("{start}{padding}\n\r\n").into_bytes();
+        assert_eq!(file.len(), files::HEADER_PREFIX as usize + 1);
+        file.extend_from_slice(data);
+        let dir = scratch_dir();
+        let path = dir.path().join("v.nrrd");
+        std::fs::write(&path, &file).unwrap();
+        assert_eq!(read(&path).unwrap().buffer(), &VoxelBuffer::I16(voxels));
+    }
+
+    #[test]
+    fn streamed_voxels_that_the_file_cannot_hold_are_errors_naming_it() {
+        let dir = scratch_dir();
+        let path = dir.path().join("v.nrrd");
+        let (raw, _) = attached_nrrd(false, 13);
+        std::fs::write(&path, &raw[..raw.len() - 1]).unwrap();
+        let short = read(&path).unwrap_err().to_string();
+        assert!(
+            short.contains("v.nrrd") && short.contains("need 48013"),
+            "{short}"
+        );
+        let (zipped, _) = attached_nrrd(true, 0);
+        std::fs::write(&path, &zipped[..zipped.len() - 100]).unwrap();
+        let cut = read(&path).unwrap_err().to_string();
+        assert!(cut.contains("v.nrrd") && cut.contains("truncated"), "{cut}");
     }
 
     #[test]
