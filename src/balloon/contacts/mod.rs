@@ -51,9 +51,16 @@ impl Segmenter<'_, '_> {
                     .triangle(near[t as usize])
                     .expect("near triangles are live")
             };
-            let (folds, contacts): (Vec<_>, Vec<_>) = pairs
-                .into_iter()
-                .partition(|&(a, b)| untangle::is_fold(&s.surface, corners(a), corners(b)));
+            let corner_pairs: Vec<_> = pairs
+                .iter()
+                .map(|&(a, b)| (corners(a), corners(b)))
+                .collect();
+            let surface = &s.surface;
+            let fold = s.pool.install(|| untangle::folds(surface, &corner_pairs));
+            let (folds, contacts): (Vec<_>, Vec<_>) =
+                pairs.iter().zip(fold).partition(|&(_, fold)| fold);
+            let folds: Vec<(u32, u32)> = folds.into_iter().map(|(&p, _)| p).collect();
+            let contacts: Vec<(u32, u32)> = contacts.into_iter().map(|(&p, _)| p).collect();
             let folded: BTreeSet<u32> = folds
                 .iter()
                 .flat_map(|&(a, b)| corners(a).into_iter().chain(corners(b)))

@@ -12,11 +12,11 @@
 //! further apart on the surface than `LOCAL_RINGS` — the balloon meeting itself — are frozen as
 //! the paper says.
 
-use std::collections::{BTreeSet, HashSet};
+use std::collections::BTreeSet;
 
 use glam::DVec3;
+use rayon::prelude::*;
 
-use crate::balloon::fast_hash::FastHash;
 use crate::balloon::surface::{Surface, VertexState};
 
 /// Two intersecting triangles at most this many rings apart on the surface are a fold.
@@ -26,21 +26,101 @@ const PATCH_RINGS: usize = 2;
 /// Umbrella passes over the patch, each moving a vertex half-way to its neighbours' centroid.
 const PASSES: usize = 5;
 
-/// Whether the triangles `a` and `b` (corners) are at most [`LOCAL_RINGS`] rings apart.
-pub(in crate::balloon) fn is_fold(surface: &Surface, a: [u32; 3], b: [u32; 3]) -> bool {
-    let mut seen: HashSet<u32, FastHash> = a.iter().copied().collect();
-    let mut ring: Vec<u32> = a.to_vec();
-    for _ in 0..=LOCAL_RINGS {
-        if b.iter().any(|v| seen.contains(v)) {
-            return true;
-        }
-        ring = ring
-            .iter()
-            .flat_map(|&v| surface.neighbours(v))
-            .filter(|&n| seen.insert(n))
-            .collect();
+/// For each pair of triangles (corners), whether the two are at most [`LOCAL_RINGS`] rings
+/// apart: a corner of the second within that many rings of a corner of the first. The pairs
+/// of one first triangle share one walk of its rings: a balloon pressed flat against the
+/// volume's faces intersects itself in thousands of pairs at once, and a walk per pair took
+/// most of the run.
+pub(in crate::balloon) fn folds(surface: &Surface, pairs: &[([u32; 3], [u32; 3])]) -> Vec<bool> {
+    let mut order: Vec<usize> = (0..pairs.len()).collect();
+    order.sort_unstable_by_key(|&i| (pairs[i].0, i));
+    let groups: Vec<&[usize]> = order.chunk_by(|&i, &j| pairs[i].0 == pairs[j].0).collect();
+    let vertices = surface.positions().len();
+    let found: Vec<Vec<(usize, bool)>> = groups
+        .par_iter()
+        .map_init(
+            || RingWalk::new(vertices),
+            |walk, group| {
+                // Ring by ring, until every second triangle is reached: most pairs are folds
+                // a ring or two across.
+                let mut answers = Vec::with_capacity(group.len());
+                let mut pending = group.to_vec();
+                walk.start(pairs[group[0]].0);
+                for ring in 0..=LOCAL_RINGS {
+                    if ring > 0 {
+                        walk.next_ring(surface);
+                    }
+                    pending.retain(|&i| {
+                        let reached = pairs[i].1.iter().any(|&v| walk.is_marked(v));
+                        if reached {
+                            answers.push((i, true));
+                        }
+                        !reached
+                    });
+                    if pending.is_empty() {
+                        break;
+                    }
+                }
+                answers.extend(pending.into_iter().map(|i| (i, false)));
+                answers
+            },
+        )
+        .collect();
+    let mut fold = vec![false; pairs.len()];
+    for (i, f) in found.into_iter().flatten() {
+        fold[i] = f;
     }
-    false
+    fold
+}
+
+/// The rings around a triangle, walked outwards: the vertices reached are marked with the
+/// walk's number, so that the marks need no clearing between walks.
+struct RingWalk {
+    marks: Vec<u32>,
+    walk: u32,
+    ring: Vec<u32>,
+    next: Vec<u32>,
+}
+
+impl RingWalk {
+    fn new(vertices: usize) -> Self {
+        RingWalk {
+            marks: vec![0; vertices],
+            walk: 0,
+            ring: Vec::new(),
+            next: Vec::new(),
+        }
+    }
+
+    /// A new walk from the triangle `corners`: its corners are marked.
+    fn start(&mut self, corners: [u32; 3]) {
+        self.walk += 1;
+        self.ring.clear();
+        for v in corners {
+            if !self.is_marked(v) {
+                self.marks[v as usize] = self.walk;
+                self.ring.push(v);
+            }
+        }
+    }
+
+    /// Marks the next ring.
+    fn next_ring(&mut self, surface: &Surface) {
+        self.next.clear();
+        for &v in &self.ring {
+            for n in surface.neighbours(v) {
+                if self.marks[n as usize] != self.walk {
+                    self.marks[n as usize] = self.walk;
+                    self.next.push(n);
+                }
+            }
+        }
+        std::mem::swap(&mut self.ring, &mut self.next);
+    }
+
+    fn is_marked(&self, v: u32) -> bool {
+        self.marks[v as usize] == self.walk
+    }
 }
 
 /// Smooths the patch around the folds' corners `folded`: every vertex within [`PATCH_RINGS`]
@@ -89,7 +169,7 @@ mod tests {
             .find(|(_, t)| t.iter().any(|v| first.contains(v)) && *t != first)
             .unwrap()
             .1;
-        assert!(is_fold(&s, first, near));
+        assert_eq!(folds(&s, &[(first, near)]), [true]);
         // The antipodal triangle is half the sphere away.
         let centre = |t: [u32; 3]| t.iter().map(|&v| s.positions()[v as usize]).sum::<DVec3>();
         let far = s
@@ -101,7 +181,55 @@ mod tests {
             })
             .unwrap()
             .1;
-        assert!(!is_fold(&s, first, far));
+        assert_eq!(folds(&s, &[(first, far)]), [false]);
+        // Grouped or not, each pair gets its own answer.
+        assert_eq!(
+            folds(
+                &s,
+                &[(first, far), (near, first), (first, near), (far, far)]
+            ),
+            [false, true, true, true]
+        );
+    }
+
+    #[test]
+    fn a_fold_is_at_most_local_rings_apart() {
+        // Along a strip of the icosphere: the vertex `LOCAL_RINGS` rings from a triangle's
+        // corners makes a fold with it, one ring further does not.
+        let s = Surface::icosphere(DVec3::ZERO, 10.0, 5).unwrap();
+        let first = s.triangle(0).unwrap();
+        let mut distance = vec![usize::MAX; s.positions().len()];
+        let mut ring: Vec<u32> = first.to_vec();
+        for &v in &ring {
+            distance[v as usize] = 0;
+        }
+        for d in 1..=LOCAL_RINGS + 1 {
+            ring = ring
+                .iter()
+                .flat_map(|&v| s.neighbours(v).collect::<Vec<_>>())
+                .filter(|&n| {
+                    let new = distance[n as usize] == usize::MAX;
+                    if new {
+                        distance[n as usize] = d;
+                    }
+                    new
+                })
+                .collect();
+        }
+        let at = |d: usize| {
+            let v = (0..distance.len()).find(|&v| distance[v] == d).unwrap() as u32;
+            s.triangles()
+                .find(|(_, t)| t.contains(&v) && t.iter().all(|&u| distance[u as usize] >= d))
+                .unwrap()
+                .1
+        };
+        assert_eq!(
+            folds(
+                &s,
+                &[(first, at(LOCAL_RINGS)), (first, at(LOCAL_RINGS + 1))]
+            ),
+            [true, false]
+        );
     }
 
     #[test]
