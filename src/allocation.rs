@@ -35,6 +35,38 @@ pub(crate) fn filled<T: Clone>(len: usize, value: T, what: &str) -> Result<Vec<T
     Ok(v)
 }
 
+/// Types whose every bit zero is a valid value, equal to their zero (`0`, `0.0`, `false`).
+///
+/// # Safety
+/// An implementing type must be valid with all bits zero.
+pub(crate) unsafe trait ZeroBits: Copy {}
+
+// SAFETY: all zero bits are 0.0, 0 and false.
+unsafe impl ZeroBits for f64 {}
+// SAFETY: as above.
+unsafe impl ZeroBits for u8 {}
+// SAFETY: as above.
+unsafe impl ZeroBits for bool {}
+
+/// `len` zeros (`vec![0.0; len]`), or an error naming `what`. Like `vec!`, it takes memory the
+/// system hands out zeroed: pages are mapped lazily, so each is first touched by the thread
+/// that fills it, not all by this one.
+pub(crate) fn zeroed<T: ZeroBits>(len: usize, what: &str) -> Result<Vec<T>> {
+    let refused = || out_of_memory(len, std::mem::size_of::<T>(), what);
+    let layout = std::alloc::Layout::array::<T>(len).map_err(|_| refused())?;
+    if layout.size() == 0 {
+        return Ok(Vec::new());
+    }
+    // SAFETY: the layout's size is not zero.
+    let data = unsafe { std::alloc::alloc_zeroed(layout) }.cast::<T>();
+    if data.is_null() {
+        return Err(refused());
+    }
+    // SAFETY: `data` comes from the global allocator with `T`'s alignment and room for exactly
+    // `len` of them, all zero bits, which `ZeroBits` makes valid values.
+    Ok(unsafe { Vec::from_raw_parts(data, len, len) })
+}
+
 /// The elements of an iterator that knows its length (as `collect` would build them), or an
 /// error naming `what` when their buffer cannot be allocated.
 pub(crate) fn collect<T>(items: impl ExactSizeIterator<Item = T>, what: &str) -> Result<Vec<T>> {
@@ -101,5 +133,10 @@ mod tests {
         assert!(with_capacity::<f64>(10, "x").unwrap().capacity() >= 10);
         let odd = collect_counted((0..10).filter(|i| i % 2 == 1), "x").unwrap();
         assert_eq!((odd.len(), odd.capacity()), (5, 5));
+        assert_eq!(zeroed::<f64>(5, "x").unwrap(), vec![0.0; 5]);
+        assert_eq!(zeroed::<bool>(0, "x").unwrap(), Vec::<bool>::new());
+        let e = zeroed::<f64>(usize::MAX / 4, "the field").unwrap_err();
+        assert_eq!(e.kind(), ErrorKind::OutOfMemory);
+        assert!(e.message().contains("for the field"), "{e}");
     }
 }

@@ -262,6 +262,68 @@ fn every_large_allocation_of_a_segmentation_can_fail_without_harm() {
     );
 }
 
+/// Until the signed distance field was allocated fallibly, refusing it aborted the process
+/// ("memory allocation of 339512 bytes failed") inside `balloon_reparametrize`.
+#[test]
+fn every_large_allocation_of_a_reparametrisation_can_fail_without_harm() {
+    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let voxels = ball();
+    let volume = described(&voxels);
+    // Inflated to the ball's wall: the grid over the balloon then needs a signed distance field
+    // above `LARGE` (its masks, a byte a voxel, and the new balloon stay below it).
+    let inflated = || {
+        let s = init(&volume);
+        let mut active = 0;
+        let status = unsafe { balloon_step(s, 200, &mut active) };
+        assert_eq!(status, BalloonStatus::BALLOON_OK, "{}", last_error());
+        s
+    };
+    let s = inflated();
+    assert_eq!(
+        unsafe { balloon_reparametrize(s) },
+        BalloonStatus::BALLOON_OK,
+        "{}",
+        last_error()
+    );
+    let reference = shown(s);
+    unsafe { balloon_free(s) };
+
+    let mut refused_runs = 0;
+    loop {
+        let s = inflated();
+        let before = shown(s);
+        let (status, refused) = refusing_the(refused_runs, || unsafe { balloon_reparametrize(s) });
+        if !refused {
+            assert_eq!(status, BalloonStatus::BALLOON_OK, "{}", last_error());
+            assert!(
+                shown(s) == reference,
+                "the counting allocator changed the result"
+            );
+            unsafe { balloon_free(s) };
+            break;
+        }
+        assert_refused(status, refused_runs);
+        assert!(
+            shown(s) == before,
+            "a refused re-parametrisation changed the balloon"
+        );
+        assert_eq!(
+            unsafe { balloon_reparametrize(s) },
+            BalloonStatus::BALLOON_OK,
+            "{}",
+            last_error()
+        );
+        assert!(shown(s) == reference);
+        unsafe { balloon_free(s) };
+        refused_runs += 1;
+    }
+    eprintln!("large allocations refused one at a time in balloon_reparametrize: {refused_runs}");
+    assert!(
+        refused_runs > 0,
+        "no allocation of {LARGE} bytes: the test proves nothing"
+    );
+}
+
 /// Calls `call` with each of its large allocations refused in turn, until a call refuses none
 /// and succeeds; `out` is the handle the call writes, which a refused call must leave NULL.
 /// Returns how many large allocations the call makes.

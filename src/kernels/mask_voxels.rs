@@ -93,7 +93,7 @@ impl MaskVoxels {
 
     /// The 6-connected components of the mask: a label per voxel (in the mask's order),
     /// numbered in the order of their first voxel, and how many there are.
-    pub fn components(&self) -> (Vec<u32>, u32) {
+    pub fn components(&self) -> Result<(Vec<u32>, u32)> {
         morphology::label_components(self.len(), |_| true, |c| self.neighbours(c))
     }
 
@@ -185,8 +185,8 @@ mod tests {
         let dims = [9, 8, 7];
         let mask = scattered(dims);
         let voxels = MaskVoxels::new(&mask, dims).unwrap();
-        let (labels, count) = voxels.components();
-        let (expected, expected_count) = morphology::components(&mask, dims);
+        let (labels, count) = voxels.components().unwrap();
+        let (expected, expected_count) = morphology::components(&mask, dims).unwrap();
         assert_eq!(count, expected_count);
         assert!(count > 3, "a mask of several pieces: {count}");
         assert_eq!(

@@ -9,16 +9,24 @@
 //! complement. The cost is the surface's voxel count times the ball's, not the grid's.
 //! Marking is idempotent, so the result does not depend on the order of the work.
 
+use crate::allocation;
+use crate::error::Result;
+
 /// Closes `mask` (i fastest, `dims`, spacing in mm) with a ball of `radius_mm`; returns the
 /// indices of the voxels it adds, ascending. The set must stay one ball's width away from the
 /// grid's faces (voxels beyond them count as outside), or it is closed against those faces.
-pub fn close(mask: &mut [bool], dims: [usize; 3], spacing: [f64; 3], radius_mm: f64) -> Vec<usize> {
+pub fn close(
+    mask: &mut [bool],
+    dims: [usize; 3],
+    spacing: [f64; 3],
+    radius_mm: f64,
+) -> Result<Vec<usize>> {
     let closed = erode(
-        &dilate(mask, dims, spacing, radius_mm),
+        &dilate(mask, dims, spacing, radius_mm)?,
         dims,
         spacing,
         radius_mm,
-    );
+    )?;
     let mut added = Vec::new();
     for (n, inside) in mask.iter_mut().enumerate() {
         if !*inside && closed[n] {
@@ -26,29 +34,39 @@ pub fn close(mask: &mut [bool], dims: [usize; 3], spacing: [f64; 3], radius_mm: 
             added.push(n);
         }
     }
-    added
+    Ok(added)
 }
 
 /// The voxels within `radius_mm` of a voxel of `mask` (i fastest, `dims`, spacing in mm).
-pub fn dilate(mask: &[bool], dims: [usize; 3], spacing: [f64; 3], radius_mm: f64) -> Vec<bool> {
+pub fn dilate(
+    mask: &[bool],
+    dims: [usize; 3],
+    spacing: [f64; 3],
+    radius_mm: f64,
+) -> Result<Vec<bool>> {
     let ball = Ball::new(spacing, radius_mm);
     let grid = Grid(dims);
-    let mut dilated = mask.to_vec();
+    let mut dilated = allocation::collect(mask.iter().copied(), "a dilated mask")?;
     for n in (0..mask.len()).filter(|&n| mask[n]) {
         if grid.neighbours(n).any(|m| !mask[m]) || grid.on_face(n) {
             ball.mark(&mut dilated, grid, n);
         }
     }
-    dilated
+    Ok(dilated)
 }
 
 /// The voxels of `mask` farther than `radius_mm` from every voxel of the grid outside it
 /// (those beyond the grid's faces do not count).
-pub fn erode(mask: &[bool], dims: [usize; 3], spacing: [f64; 3], radius_mm: f64) -> Vec<bool> {
+pub fn erode(
+    mask: &[bool],
+    dims: [usize; 3],
+    spacing: [f64; 3],
+    radius_mm: f64,
+) -> Result<Vec<bool>> {
     let ball = Ball::new(spacing, radius_mm);
     let grid = Grid(dims);
-    let mut near_outside = vec![false; mask.len()];
-    let mut source = vec![false; mask.len()];
+    let mut near_outside = allocation::zeroed(mask.len(), "an eroded mask's band")?;
+    let mut source: Vec<bool> = allocation::zeroed(mask.len(), "an eroded mask's band")?;
     for n in (0..mask.len()).filter(|&n| mask[n]) {
         for m in grid.neighbours(n) {
             if !mask[m] && !source[m] {
@@ -57,15 +75,15 @@ pub fn erode(mask: &[bool], dims: [usize; 3], spacing: [f64; 3], radius_mm: f64)
             }
         }
     }
-    mask.iter()
-        .zip(&near_outside)
-        .map(|(&m, &o)| m && !o)
-        .collect()
+    allocation::collect(
+        mask.iter().zip(&near_outside).map(|(&m, &o)| m && !o),
+        "an eroded mask",
+    )
 }
 
 /// The 6-connected components of `mask`: a label per voxel (`u32::MAX` outside the mask),
 /// numbered in the order of their first voxel, and how many there are.
-pub fn components(mask: &[bool], dims: [usize; 3]) -> (Vec<u32>, u32) {
+pub fn components(mask: &[bool], dims: [usize; 3]) -> Result<(Vec<u32>, u32)> {
     let grid = Grid(dims);
     label_components(mask.len(), |n| mask[n], |n| grid.neighbours(n))
 }
@@ -77,8 +95,8 @@ pub(crate) fn label_components<I: Iterator<Item = usize>>(
     len: usize,
     member: impl Fn(usize) -> bool,
     neighbours: impl Fn(usize) -> I,
-) -> (Vec<u32>, u32) {
-    let mut labels = vec![u32::MAX; len];
+) -> Result<(Vec<u32>, u32)> {
+    let mut labels = allocation::filled(len, u32::MAX, "the components' labels")?;
     let mut count = 0;
     let mut stack = Vec::new();
     for start in 0..len {
@@ -91,13 +109,15 @@ pub(crate) fn label_components<I: Iterator<Item = usize>>(
             for m in neighbours(n) {
                 if member(m) && labels[m] == u32::MAX {
                     labels[m] = count;
+                    // A component as large as the grid stacks a front as large as a slab.
+                    allocation::reserved::<usize>(stack.try_reserve(1), len, "the flood's stack")?;
                     stack.push(m);
                 }
             }
         }
         count += 1;
     }
-    (labels, count)
+    Ok((labels, count))
 }
 
 /// The voxel offsets `(di, dj, dk)` within the radius.
@@ -239,7 +259,7 @@ pub(crate) mod tests {
             spacing,
         );
         let mut closed = mask.clone();
-        let added = close(&mut closed, dims, spacing, 1.7);
+        let added = close(&mut closed, dims, spacing, 1.7).unwrap();
         assert!(!added.is_empty(), "the gap between the blobs must fill");
         let expected = brute_force(&mask, dims, spacing, 1.7);
         let differ = (0..mask.len())
@@ -260,15 +280,15 @@ pub(crate) mod tests {
             (p[0] - c).powi(2) + (p[1] - 8.0).powi(2) + (p[2] - 8.0).powi(2) <= 25.0
         };
         let mask = grid(dims, |p| ball(p, 10.0) || ball(p, 20.0), spacing);
-        assert_eq!(components(&mask, dims).1, 1);
-        let cores = erode(&mask, dims, spacing, 2.0);
-        let (labels, count) = components(&cores, dims);
+        assert_eq!(components(&mask, dims).unwrap().1, 1);
+        let cores = erode(&mask, dims, spacing, 2.0).unwrap();
+        let (labels, count) = components(&cores, dims).unwrap();
         assert_eq!(count, 2);
         let at = |i: usize| i + 32 * (8 + 16 * 8);
         assert_ne!(labels[at(10)], labels[at(20)]);
         assert!(cores.iter().zip(&mask).all(|(&c, &m)| !c || m));
         // Dilating the cores back gives no more than the balls.
-        let back = dilate(&cores, dims, spacing, 2.0);
+        let back = dilate(&cores, dims, spacing, 2.0).unwrap();
         assert!(back.iter().zip(&mask).all(|(&b, &m)| !b || m));
     }
 
@@ -281,7 +301,9 @@ pub(crate) mod tests {
             |p| p.iter().map(|c| (c - 9.5).powi(2)).sum::<f64>() < 36.0,
             spacing,
         );
-        assert!(close(&mut ball.clone(), dims, spacing, 1.5).is_empty());
+        assert!(close(&mut ball.clone(), dims, spacing, 1.5)
+            .unwrap()
+            .is_empty());
         // A slab pierced by a hole one voxel wide.
         let pierced = grid(
             dims,
@@ -294,7 +316,7 @@ pub(crate) mod tests {
             spacing,
         );
         let mut closed = pierced.clone();
-        let added = close(&mut closed, dims, spacing, 1.5);
+        let added = close(&mut closed, dims, spacing, 1.5).unwrap();
         assert_eq!(added.len(), 7, "the hole's seven voxels");
     }
 }

@@ -28,6 +28,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::allocation;
 use crate::closest_point::Triangle;
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
@@ -108,7 +109,7 @@ pub fn signed_distance_values(
     let distances = BandDistance::new(surface, dims, geometry, band);
     // Zeroed memory is mapped lazily, so each slab's pages are first touched by the thread that
     // fills it rather than all by this one.
-    let mut field = vec![0.0; len];
+    let mut field = allocation::zeroed(len, "a signed distance field")?;
     field.par_chunks_mut(ni * nj).enumerate().for_each_init(
         || vec![0i32; ni * nj],
         |counts, (k, slab)| {

@@ -280,7 +280,7 @@ fn structures_cut_before(
         inside.iter().zip(&taken).map(|(&a, &b)| a || b),
         "the balloon's inside with the earlier cuts",
     )?;
-    morphology::close(&mut seen, dims, spacing, SEAM_VOXELS * spacing[0]);
+    morphology::close(&mut seen, dims, spacing, SEAM_VOXELS * spacing[0])?;
     let (whole, thickness) = find_basins(&seen, dims, spacing, radius)?;
     let seeded = basins_of(&whole, seed_voxels);
     let kept = joined_through_round_contacts(&whole, &thickness, &seeded, dims, grid);

@@ -27,6 +27,7 @@ use std::collections::HashMap;
 use glam::{DVec3, I64Vec3};
 use rayon::prelude::*;
 
+use crate::allocation;
 use crate::balloon::fast_hash::FastHash;
 use crate::balloon::surface::VertexState;
 use crate::digital_topology::euler_characteristic;
@@ -114,7 +115,7 @@ pub(crate) fn reparametrize(
 pub(crate) fn voxel_genus(mesh: &TriMesh, geometry: &Geometry) -> Result<Option<i64>> {
     let (grid, dims) = covering_grid(mesh, geometry, MARGIN_VOXELS)?;
     let inside = inside_mask(mesh, dims, &grid)?;
-    let (_, pieces) = morphology::components(&inside, dims);
+    let (_, pieces) = morphology::components(&inside, dims)?;
     Ok((pieces == 1).then(|| 1 - euler_characteristic(&inside, dims)))
 }
 
@@ -130,14 +131,14 @@ fn fill_passable_gaps(
     grid: &Geometry,
     passable: &(dyn Fn(DVec3) -> bool + Sync),
 ) -> Result<()> {
-    let mut inside: Vec<bool> = field.iter().map(|&v| v < 0.0).collect();
+    let mut inside = allocation::collect(field.iter().map(|&v| v < 0.0), "the balloon's inside")?;
     let radius = CLOSING_VOXELS * grid.min_spacing();
-    let added = morphology::close(&mut inside, dims, grid.spacing(), radius);
+    let added = morphology::close(&mut inside, dims, grid.spacing(), radius)?;
     if added.is_empty() {
         return Ok(());
     }
     let gap = MaskVoxels::from_sorted(added, dims)?;
-    let (labels, count) = gap.components();
+    let (labels, count) = gap.components()?;
     let blocked: Vec<u32> = (0..gap.len())
         .into_par_iter()
         .filter(|&c| !passable(grid.index_to_world(grid_point(gap.voxel(c), dims))))
@@ -183,7 +184,7 @@ pub(in crate::balloon) fn keep_seeded_components(
 ) -> Result<()> {
     // The inside is a vessel tree in the box around it: its voxels alone are labelled.
     let inside = MaskVoxels::where_true(dims, |n| field[n] < 0.0)?;
-    let (labels, count) = inside.components();
+    let (labels, count) = inside.components()?;
     if count <= 1 {
         return Ok(());
     }
