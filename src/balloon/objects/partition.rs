@@ -24,6 +24,7 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
+use crate::allocation;
 use crate::balloon::fast_hash::FastHash;
 
 use crate::balloon::finishing::touching::{basins_of, find_basins, voxel_of, BasinMap};
@@ -60,7 +61,7 @@ pub(super) fn repartition(
         all.append(mesh)?;
     }
     let (grid, dims) = covering_grid(&all, &isotropic, 2.0)?;
-    let mut owner = vec![NOBODY; dims.iter().product()];
+    let mut owner = allocation::filled(dims.iter().product(), NOBODY, "the objects' owners")?;
     for (i, mesh) in meshes.iter().enumerate() {
         for (o, inside) in owner.iter_mut().zip(inside_mask(mesh, dims, &grid)?) {
             if inside && *o == NOBODY {
@@ -68,34 +69,39 @@ pub(super) fn repartition(
             }
         }
     }
-    let union: Vec<bool> = owner.iter().map(|&o| o != NOBODY).collect();
+    let union = allocation::collect(owner.iter().map(|&o| o != NOBODY), "the objects' union")?;
     // The basins of the union as the balloons left it, their gap outside: with the gap closed,
     // two tubes lying side by side read as one thick part, split along its length instead
     // (touching-pair variant 0: Dice 0.58 for the thinner tube).
     let (basins, thickness) = find_basins(&union, dims, grid.spacing(), radius)?;
     let claimed = claim_basins(&basins, thickness.len(), seeds, &grid, dims);
-    let claims: Vec<u32> = owner
-        .iter()
-        .enumerate()
-        .map(|(n, &o)| match claimed.get(basins.at(n) as usize) {
-            Some(&k) if k != NOBODY && o != NOBODY => k,
-            _ => o,
-        })
-        .collect();
+    let claims = allocation::collect(
+        owner
+            .iter()
+            .enumerate()
+            .map(|(n, &o)| match claimed.get(basins.at(n) as usize) {
+                Some(&k) if k != NOBODY && o != NOBODY => k,
+                _ => o,
+            }),
+        "the basins' claims",
+    )?;
     let gap = GAP_VOXELS * geometry.max_spacing();
     let between = between_objects(meshes, &owner, dims, &grid, gap)?;
-    let closed: Vec<bool> = union.iter().zip(&between).map(|(&u, &b)| u || b).collect();
+    let closed = allocation::collect(
+        union.iter().zip(&between).map(|(&u, &b)| u || b),
+        "the objects' union with the space between them",
+    )?;
     let depth = distance_to_outside(&closed, dims, grid.spacing())?;
-    let new_owner: Vec<u32> = power_labels(&depth, &claims, NOBODY, dims, grid.spacing())?
-        .into_iter()
-        .zip(&union)
-        .map(|(o, &inside)| if inside { o } else { NOBODY })
-        .collect();
+    let mut new_owner = power_labels(&depth, &claims, NOBODY, dims, grid.spacing())?;
+    for (o, &inside) in new_owner.iter_mut().zip(&union) {
+        if !inside {
+            *o = NOBODY;
+        }
+    }
     if new_owner == owner {
         return Ok(None);
     }
-    let mut new_owner = new_owner;
-    keep_apart(&mut new_owner, dims);
+    keep_apart(&mut new_owner, dims)?;
     let band = SignedDistanceOptions { band_voxels: 1.0 };
     let outside = band.band_mm(&grid);
     let voxel_volume = voxel.powi(3);
@@ -132,7 +138,7 @@ fn between_objects(
     let band = SignedDistanceOptions {
         band_voxels: (gap / grid.max_spacing()).max(1.0),
     };
-    let mut near = vec![0u8; owner.len()];
+    let mut near: Vec<u8> = allocation::zeroed(owner.len(), "the objects' nearness counts")?;
     for mesh in meshes {
         let field = signed_distance_values(mesh, mesh, dims, grid, &band)?;
         for ((count, &d), &o) in near.iter_mut().zip(&field).zip(owner) {
@@ -141,7 +147,10 @@ fn between_objects(
             }
         }
     }
-    Ok(near.into_iter().map(|count| count >= 2).collect())
+    allocation::collect(
+        near.iter().map(|&count| count >= 2),
+        "the space between the objects",
+    )
 }
 
 /// The object each basin goes to (`NOBODY`: it stays as it is). A basin holding the seeds of
@@ -210,9 +219,9 @@ fn claim_basins(
 }
 
 /// Gives up to nobody every voxel with a 26-neighbour of an object earlier in order.
-fn keep_apart(owner: &mut [u32], dims: [usize; 3]) {
+fn keep_apart(owner: &mut [u32], dims: [usize; 3]) -> Result<()> {
     let grid = Grid(dims);
-    let before = owner.to_vec();
+    let before = allocation::collect(owner.iter().copied(), "the owners before")?;
     for (n, o) in owner.iter_mut().enumerate() {
         if *o == NOBODY {
             continue;
@@ -231,4 +240,5 @@ fn keep_apart(owner: &mut [u32], dims: [usize; 3]) {
             *o = NOBODY;
         }
     }
+    Ok(())
 }
