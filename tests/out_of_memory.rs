@@ -225,33 +225,15 @@ fn every_large_allocation_of_a_segmentation_can_fail_without_harm() {
         refused_inits += 1;
     }
 
-    let mut refused_runs = 0;
-    loop {
-        let s = init(&volume);
-        let (status, refused) = refusing_the(refused_runs, || unsafe { balloon_segment(s) });
-        if !refused {
-            assert_eq!(status, BalloonStatus::BALLOON_OK, "{}", last_error());
-            assert!(
-                shown(s) == reference,
-                "the counting allocator changed the result"
-            );
-            unsafe { balloon_free(s) };
-            break;
-        }
-        assert_refused(status, refused_runs);
-        // The handle stays usable: it shows the last completed step, and goes on to a valid
-        // result.
-        assert_valid(s);
-        assert_eq!(
-            unsafe { balloon_segment(s) },
-            BalloonStatus::BALLOON_OK,
-            "{}",
-            last_error()
-        );
-        assert_valid(s);
-        unsafe { balloon_free(s) };
-        refused_runs += 1;
-    }
+    // The handle stays usable: it shows the last completed step, and goes on to a valid
+    // result.
+    let refused_runs = refuse_each_on_a_handle(
+        || init(&volume),
+        |s| unsafe { balloon_segment(s) },
+        &reference,
+        |s, _| assert_valid(s),
+        |s| assert_valid(s),
+    );
     eprintln!(
         "large allocations refused one at a time: {refused_inits} in balloon_init, \
          {refused_runs} in balloon_segment"
@@ -288,40 +270,59 @@ fn every_large_allocation_of_a_reparametrisation_can_fail_without_harm() {
     let reference = shown(s);
     unsafe { balloon_free(s) };
 
-    let mut refused_runs = 0;
-    loop {
-        let s = inflated();
-        let before = shown(s);
-        let (status, refused) = refusing_the(refused_runs, || unsafe { balloon_reparametrize(s) });
-        if !refused {
-            assert_eq!(status, BalloonStatus::BALLOON_OK, "{}", last_error());
+    let refused_runs = refuse_each_on_a_handle(
+        inflated,
+        |s| unsafe { balloon_reparametrize(s) },
+        &reference,
+        |s, before| {
             assert!(
-                shown(s) == reference,
-                "the counting allocator changed the result"
-            );
-            unsafe { balloon_free(s) };
-            break;
-        }
-        assert_refused(status, refused_runs);
-        assert!(
-            shown(s) == before,
-            "a refused re-parametrisation changed the balloon"
-        );
-        assert_eq!(
-            unsafe { balloon_reparametrize(s) },
-            BalloonStatus::BALLOON_OK,
-            "{}",
-            last_error()
-        );
-        assert!(shown(s) == reference);
-        unsafe { balloon_free(s) };
-        refused_runs += 1;
-    }
+                shown(s) == *before,
+                "a refused re-parametrisation changed the balloon"
+            )
+        },
+        |s| assert!(shown(s) == reference),
+    );
     eprintln!("large allocations refused one at a time in balloon_reparametrize: {refused_runs}");
     assert!(
         refused_runs > 0,
         "no allocation of {LARGE} bytes: the test proves nothing"
     );
+}
+
+type Shown = (Vec<[f64; 3]>, Vec<[u32; 3]>);
+
+/// Runs `call` on a handle from `make` with each of its large allocations refused in turn,
+/// until a call refuses none: it must then succeed with `reference`. After each refusal,
+/// `after_refusal` checks the handle (given the mesh shown before the call), the call is made
+/// again and must succeed, and `after_retry` checks the handle. Returns how many large
+/// allocations the call makes.
+fn refuse_each_on_a_handle(
+    make: impl Fn() -> *mut BalloonSegmenter,
+    call: impl Fn(*mut BalloonSegmenter) -> BalloonStatus,
+    reference: &Shown,
+    after_refusal: impl Fn(*mut BalloonSegmenter, &Shown),
+    after_retry: impl Fn(*mut BalloonSegmenter),
+) -> usize {
+    for n in 0.. {
+        let s = make();
+        let before = shown(s);
+        let (status, refused) = refusing_the(n, || call(s));
+        if !refused {
+            assert_eq!(status, BalloonStatus::BALLOON_OK, "{}", last_error());
+            assert!(
+                shown(s) == *reference,
+                "the counting allocator changed the result"
+            );
+            unsafe { balloon_free(s) };
+            return n;
+        }
+        assert_refused(status, n);
+        after_refusal(s, &before);
+        assert_eq!(call(s), BalloonStatus::BALLOON_OK, "{}", last_error());
+        after_retry(s);
+        unsafe { balloon_free(s) };
+    }
+    unreachable!()
 }
 
 /// Calls `call` with each of its large allocations refused in turn, until a call refuses none
