@@ -25,7 +25,7 @@ use super::compression::{stream_voxels, zlib, VoxelData};
 use super::files::{self, HeaderPrefix};
 use super::text_header::{
     beside, byte_count, concatenate_parts, fmt_list, geometry, has_suffix, line_at, lines_from,
-    number, numbers, sizes, take_bytes,
+    number, numbers, sizes, take_bytes, Described,
 };
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
@@ -66,14 +66,6 @@ pub fn read(path: &Path) -> Result<Image> {
     local_stream(&h, described, data, data_len).map_err(|e| e.context(path.display()))
 }
 
-/// What the header says of the voxels: sizes, type and byte order, and the geometry.
-struct Described {
-    dims: [usize; 3],
-    scalar: ScalarType,
-    big_endian: bool,
-    geometry: Geometry,
-}
-
 /// Voxels of `described` streamed from `data`, the `data_len` bytes after a `LOCAL` header.
 fn local_stream(
     h: &Header,
@@ -81,13 +73,13 @@ fn local_stream(
     data: impl BufRead,
     data_len: u64,
 ) -> Result<Image> {
+    let count = described.voxel_count()?;
     let Described {
         dims,
         scalar,
-        big_endian,
+        little_endian,
         geometry,
     } = described;
-    let count = byte_count(dims, scalar)? / scalar.size_in_bytes();
     let buffer = if h.flag(&["CompressedData"])?.unwrap_or(false) {
         let stream_len = match h.parsed::<u64>("CompressedDataSize")? {
             Some(n) if n > data_len => {
@@ -100,9 +92,9 @@ fn local_stream(
             None => data_len,
         };
         let stream = BufReader::new(data.take(stream_len));
-        stream_voxels(stream, stream_len, true, 0, scalar, count, !big_endian)?
+        stream_voxels(stream, stream_len, true, 0, scalar, count, little_endian)?
     } else {
-        stream_voxels(data, data_len, false, 0, scalar, count, !big_endian)?
+        stream_voxels(data, data_len, false, 0, scalar, count, little_endian)?
     };
     Image::new(buffer, dims, geometry)
 }
@@ -233,11 +225,11 @@ pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
     let Described {
         dims,
         scalar,
-        big_endian,
+        little_endian,
         geometry,
     } = describe(&h)?;
     let expected = byte_count(dims, scalar)?;
-    let buffer = voxel_data(&h, bytes, path, expected)?.into_buffer(scalar, !big_endian)?;
+    let buffer = voxel_data(&h, bytes, path, expected)?.into_buffer(scalar, little_endian)?;
     Image::new(buffer, dims, geometry)
 }
 
@@ -278,7 +270,7 @@ fn describe(h: &Header) -> Result<Described> {
     Ok(Described {
         dims,
         scalar,
-        big_endian,
+        little_endian: !big_endian,
         geometry: read_geometry(h, ndims)?,
     })
 }

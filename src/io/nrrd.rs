@@ -24,7 +24,7 @@ use super::compression::{gzip, stream_voxels, VoxelData};
 use super::files::{self, HeaderPrefix};
 use super::text_header::{
     axes_of, beside, byte_count, concatenate_parts, fmt_list, geometry, geometry_from_axes,
-    has_suffix, line_at, lines_from, number, numbers, sizes, take_bytes,
+    has_suffix, line_at, lines_from, number, numbers, sizes, take_bytes, Described,
 };
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
@@ -93,7 +93,7 @@ pub fn read(path: &Path) -> Result<Image> {
     let context = |e: Error| e.context(path.display());
     let d = describe(&h).map_err(context)?;
     let compressed = is_gzip(&h).map_err(context)?;
-    let count = byte_count(d.dims, d.scalar).map_err(context)? / d.scalar.size_in_bytes();
+    let count = d.voxel_count().map_err(context)?;
     let (data, len) = prefix.data_from(start)?;
     let buffer = stream_voxels(
         data,
@@ -240,14 +240,6 @@ pub(crate) fn decode(bytes: &[u8], path: &Path) -> Result<Image> {
     let expected = byte_count(d.dims, d.scalar)?;
     let buffer = voxel_data(&h, bytes, path, expected)?.into_buffer(d.scalar, d.little_endian)?;
     Image::new(buffer, d.dims, d.geometry)
-}
-
-/// What the header says of the voxels: sizes, type and byte order, and the geometry.
-struct Described {
-    dims: [usize; 3],
-    scalar: ScalarType,
-    little_endian: bool,
-    geometry: Geometry,
 }
 
 fn describe(h: &Header) -> Result<Described> {

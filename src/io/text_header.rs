@@ -134,6 +134,22 @@ pub(crate) fn fmt_list(values: &[f64], separator: &str) -> String {
         .join(separator)
 }
 
+/// What a volume's text header (MetaImage, NRRD) says of its voxels: sizes, type, byte order
+/// and geometry.
+pub(crate) struct Described {
+    pub dims: [usize; 3],
+    pub scalar: ScalarType,
+    pub little_endian: bool,
+    pub geometry: Geometry,
+}
+
+impl Described {
+    /// How many voxels there are (their bytes checked against the address space).
+    pub fn voxel_count(&self) -> Result<usize> {
+        Ok(byte_count(self.dims, self.scalar)? / self.scalar.size_in_bytes())
+    }
+}
+
 /// Bytes of `dims` voxels of `scalar`, without overflow.
 pub(crate) fn byte_count(dims: [usize; 3], scalar: ScalarType) -> Result<usize> {
     dims.iter()
