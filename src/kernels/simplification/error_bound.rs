@@ -21,9 +21,10 @@
 //!   input triangles near it (`InputSurface::covers`): pieces within `ε` of one input triangle
 //!   pass, and so do pieces whose corners are within `ε − ℓ/√3` of the input, `ℓ` the piece's
 //!   longest edge (the distance to a set is 1-Lipschitz, and every point of a triangle is
-//!   within `ℓ/√3` of a corner), and pieces over two adjacent input triangles that unfold into
-//!   a convex quadrilateral within the bound (`FlattenedPair`); the others are cut into
-//!   quarters, whose reach shrinks. A corner farther than `ε` from the input disproves the
+//!   within `ℓ/√3` of a corner), pieces over two adjacent input triangles that unfold into
+//!   a convex quadrilateral within the bound (`FlattenedPair`), and pieces over the triangles
+//!   around an input vertex that flatten into a convex polygon within the bound
+//!   (`FlattenedFan`); the others are cut into quarters, whose reach shrinks. A corner farther than `ε` from the input disproves the
 //!   triangle at once.
 //!
 //! Distances are computed in f64 against a limit `ε·(1 − 1e-9)`, which keeps the rounding of
@@ -166,20 +167,16 @@ impl Attachments {
         })
     }
 
-    /// The pieces of the output triangles `from` placed on `targets` (the triangles that
-    /// replace them): each piece, or each part it is cut into (`divide_onto`), goes to a target
-    /// whose distance to all its corners is at most `limit`, trying first the target in
-    /// `slot_of` its triangle.
-    /// An input triangle all of whose pieces are among them is tried whole first, so that the
-    /// cuts of earlier collapses heal where they are no longer needed. Returns the pieces per
-    /// target, or `None` when some piece fits nowhere.
-    pub(super) fn place(
+    /// The pieces of the output triangles `from` that a collapse must place again on the
+    /// triangles replacing them, each with the slot (`slot_of`) of the triangle that held it,
+    /// tried first. An input triangle all of whose pieces are among them comes whole, so that
+    /// the cuts of earlier collapses heal where they are no longer needed. Gathered once for
+    /// all the positions a collapse tries.
+    pub(super) fn displaced(
         &self,
         from: &[u32],
         slot_of: impl Fn(u32) -> Option<usize>,
-        targets: &[Target],
-        limit: f64,
-    ) -> Option<Vec<Vec<Attached>>> {
+    ) -> Displaced {
         let mut gathered: Vec<(Attached, Option<usize>)> = from
             .iter()
             .flat_map(|&t| self.pieces[t as usize].iter().map(move |&p| (p, t)))
@@ -204,7 +201,7 @@ impl Attachments {
         // The pieces of the two deleted triangles first: they lie where the surface changes
         // most, so a collapse that fails usually fails there, before the others are tried.
         work.sort_by_key(|(_, slot)| slot.is_some());
-        place_pieces(work, targets, limit)
+        Displaced(work)
     }
 
     /// Takes the pieces of `deleted` and `moved` away and gives `moved` the `placed` ones.
@@ -220,6 +217,20 @@ impl Attachments {
             }
             self.pieces[t as usize] = pieces;
         }
+    }
+}
+
+/// The input pieces a collapse displaces (`Attachments::displaced`), each with the slot of the
+/// target it is tried on first.
+pub(super) struct Displaced(Vec<(Attached, Option<usize>)>);
+
+impl Displaced {
+    /// The pieces placed on `targets` (the triangles that replace theirs): each piece, or each
+    /// part it is cut into (`divide_onto`), goes to a target whose distance to all its corners
+    /// is at most `limit`. Returns the pieces per target, or `None` when some piece fits
+    /// nowhere.
+    pub(super) fn place(&self, targets: &[Target], limit: f64) -> Option<Vec<Vec<Attached>>> {
+        place_pieces(&self.0, targets, limit)
     }
 }
 
@@ -318,6 +329,154 @@ impl FlattenedPair {
     }
 }
 
+/// The targets around one vertex seen as one convex polygon: the fan projected onto a plane
+/// through the vertex, when it covers a convex polygon there once (a height field over the
+/// plane whose rim turns left at every ring vertex and once around). As for
+/// [`FlattenedPair`], the distance to the fan is at most the distance to the polygon plus the
+/// largest height of the fan over the plane (the height is linear on each target, so largest
+/// at a ring vertex), and the distance to a convex set is convex: a part whose corners are
+/// within `limit − lift` of the polygon is within `limit` of the fan, wherever it passes from
+/// one target to the next. It proves the parts near an input vertex, where three or more
+/// targets meet and neither single targets nor pairs hold the corners.
+struct FlattenedFan {
+    centre: DVec3,
+    normal: DVec3,
+    /// The ring projected onto the plane, in order around the centre.
+    rim: Vec<DVec3>,
+    lift: f64,
+}
+
+impl FlattenedFan {
+    /// The fan of the targets around vertex `v`, or `None` when they do not close around it
+    /// or do not flatten into a convex polygon.
+    fn around(v: u32, targets: &[Target]) -> Option<FlattenedFan> {
+        // Each target around `v` as the edge of the ring opposite it, in the target's order.
+        let ring_edges: Vec<(u32, u32, DVec3, DVec3)> = targets
+            .iter()
+            .filter_map(|t| {
+                let k = t.vertices.iter().position(|&u| u == v)?;
+                let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+                Some((t.vertices[i], t.vertices[j], t.corners[i], t.corners[j]))
+            })
+            .collect();
+        if ring_edges.len() < 3 {
+            return None;
+        }
+        let centre = targets.iter().find_map(|t| {
+            t.vertices
+                .iter()
+                .position(|&u| u == v)
+                .map(|k| t.corners[k])
+        })?;
+        let normal = ring_edges
+            .iter()
+            .map(|&(_, _, p, q)| (p - centre).cross(q - centre))
+            .sum::<DVec3>()
+            .normalize_or_zero();
+        if normal == DVec3::ZERO {
+            return None;
+        }
+        // Walk the ring: it closes when every ring vertex starts exactly one edge and the
+        // walk comes back to its start after visiting all of them.
+        let mut rim = Vec::with_capacity(ring_edges.len());
+        let mut lift = 0.0f64;
+        let (first, ..) = ring_edges[0];
+        let mut at = first;
+        for _ in 0..ring_edges.len() {
+            let mut starting = ring_edges.iter().filter(|e| e.0 == at);
+            let (&(_, next, p, _), None) = (starting.next()?, starting.next()) else {
+                return None;
+            };
+            let height = normal.dot(p - centre);
+            lift = lift.max(height.abs());
+            rim.push(p - normal * height);
+            at = next;
+        }
+        if at != first {
+            return None;
+        }
+        // Every rim vertex a left turn and the rim once around the centre: a convex polygon
+        // that the projected targets cover (each projected target turns the same way).
+        let n = rim.len();
+        let turn = |a: DVec3, b: DVec3, c: DVec3| normal.dot((b - a).cross(c - b));
+        let convex = (0..n).all(|i| {
+            let (a, b, c) = (rim[i], rim[(i + 1) % n], rim[(i + 2) % n]);
+            turn(a, b, c) > 0.0 && turn(centre, a, b) > 0.0
+        });
+        let winding: f64 = (0..n)
+            .map(|i| {
+                let (a, b) = (rim[i] - centre, rim[(i + 1) % n] - centre);
+                normal.dot(a.cross(b)).atan2(a.dot(b))
+            })
+            .sum();
+        let once = (winding - std::f64::consts::TAU).abs() < 1e-6;
+        (convex && once).then_some(FlattenedFan {
+            centre,
+            normal,
+            rim,
+            lift,
+        })
+    }
+
+    /// The distance from `p` to the polygon.
+    fn polygon_distance(&self, p: DVec3) -> f64 {
+        let height = self.normal.dot(p - self.centre);
+        let q = p - self.normal * height;
+        let n = self.rim.len();
+        let edges = (0..n).map(|i| (self.rim[i], self.rim[(i + 1) % n]));
+        let inside = edges
+            .clone()
+            .all(|(a, b)| self.normal.dot((b - a).cross(q - a)) >= 0.0);
+        let across = if inside {
+            0.0
+        } else {
+            edges
+                .map(|(a, b)| {
+                    let ab = b - a;
+                    let t = (ab.dot(q - a) / ab.length_squared()).clamp(0.0, 1.0);
+                    (a + ab * t).distance_squared(q)
+                })
+                .fold(f64::INFINITY, f64::min)
+                .sqrt()
+        };
+        height.hypot(across)
+    }
+
+    /// An upper bound of the distance from any point of `part` to the fan.
+    fn bound(&self, part: Piece) -> f64 {
+        let to_polygon = part
+            .iter()
+            .map(|&p| self.polygon_distance(p))
+            .fold(0.0f64, f64::max);
+        to_polygon + self.lift
+    }
+}
+
+/// The vertices that all of `targets` share, each once.
+fn shared_vertices<'a>(targets: &'a [&'a Target; 3]) -> impl Iterator<Item = u32> + 'a {
+    targets[0]
+        .vertices
+        .into_iter()
+        .filter(|v| targets[1..].iter().all(|t| t.vertices.contains(v)))
+}
+
+/// The fans one proof has flattened, by their centre vertex (a handful per proof).
+#[derive(Default)]
+struct Fans(Vec<(u32, Option<FlattenedFan>)>);
+
+impl Fans {
+    fn get(&mut self, v: u32, targets: &[Target]) -> Option<&FlattenedFan> {
+        let k = match self.0.iter().position(|f| f.0 == v) {
+            Some(k) => k,
+            None => {
+                self.0.push((v, FlattenedFan::around(v, targets)));
+                self.0.len() - 1
+            }
+        };
+        self.0[k].1.as_ref()
+    }
+}
+
 /// The plane through the edge two adjacent targets share that stands across the surface there
 /// (it contains the edge and the mean of their normals): it divides a piece lying over both
 /// into the part over each. `None` when the targets fold onto each other.
@@ -375,12 +534,12 @@ impl Fallback {
 /// Places `pieces` on the `targets`, each with its preferred target slot; see
 /// `Attachments::place`.
 fn place_pieces(
-    pieces: Vec<(Attached, Option<usize>)>,
+    pieces: &[(Attached, Option<usize>)],
     targets: &[Target],
     limit: f64,
 ) -> Option<Vec<Vec<Attached>>> {
     let mut placed: Vec<Vec<Attached>> = vec![Vec::new(); targets.len()];
-    for (piece, preferred) in pieces {
+    for &(piece, preferred) in pieces {
         let fitted = divide_onto(
             piece.corners,
             preferred,
@@ -415,6 +574,7 @@ fn divide_onto(
     mut fit: impl FnMut(Piece, usize),
 ) -> bool {
     let limit2 = limit * limit;
+    let mut fans = Fans::default();
     let mut stack = vec![(piece, preferred, 0u32)];
     let mut examined = 0;
     while let Some((piece, preferred, depth)) = stack.pop() {
@@ -465,6 +625,12 @@ fn divide_onto(
                 .find(|&k| k != first)
                 .and_then(|second| FlattenedPair::new(&targets[first], &targets[second]));
             if pair.is_some_and(|pair| pair.bound(piece) <= limit) {
+                continue;
+            }
+            if shared_vertices(&nearest.map(|n| &targets[n.1])).any(|v| {
+                fans.get(v, targets)
+                    .is_some_and(|fan| fan.bound(piece) <= limit)
+            }) {
                 continue;
             }
         }
@@ -555,6 +721,81 @@ mod tests {
         assert!(FlattenedPair::new(&first, &onto).is_none());
     }
 
+    /// Six targets around vertex 0 at the origin, their ring on a circle of radius 1 lifted
+    /// by `lift(angle)`.
+    fn fan(lift: impl Fn(f64) -> f64) -> Vec<Target> {
+        let ring: Vec<DVec3> = (0..6)
+            .map(|k| {
+                let angle = k as f64 * std::f64::consts::TAU / 6.0;
+                DVec3::new(angle.cos(), angle.sin(), lift(angle))
+            })
+            .collect();
+        (0..6)
+            .map(|k| {
+                let next = (k + 1) % 6;
+                Target::new(
+                    [DVec3::ZERO, ring[k], ring[next]],
+                    [0, 1 + k as u32, 1 + next as u32],
+                )
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_flattened_fan_bounds_the_distance_to_its_targets_from_above() {
+        // A bowl: the ring 0.03 to 0.05 above the centre.
+        let targets = fan(|angle| 0.04 + 0.01 * (3.0 * angle).cos());
+        let fan = FlattenedFan::around(0, &targets).unwrap();
+        // A part over the centre, reaching into four of the six targets.
+        let part = [
+            DVec3::new(-0.3, -0.2, 0.05),
+            DVec3::new(0.4, -0.1, 0.03),
+            DVec3::new(0.0, 0.45, 0.06),
+        ];
+        let bound = fan.bound(part);
+        assert!(bound < 0.12, "{bound}");
+        for i in 0..=30 {
+            for j in 0..=30 - i {
+                let (u, v) = (i as f64 / 30.0, j as f64 / 30.0);
+                let p = part[0] + (part[1] - part[0]) * u + (part[2] - part[0]) * v;
+                let d = targets
+                    .iter()
+                    .map(|t| t.distance_squared(p))
+                    .fold(f64::INFINITY, f64::min)
+                    .sqrt();
+                assert!(d <= bound, "{d} > {bound} at {p}");
+            }
+        }
+        // Not a fan for a vertex on its rim, nor with a target missing.
+        assert!(FlattenedFan::around(1, &targets).is_none());
+        assert!(FlattenedFan::around(0, &targets[1..]).is_none());
+    }
+
+    #[test]
+    fn a_fan_that_does_not_flatten_into_a_convex_polygon_gives_no_bound() {
+        // A rim vertex pulled in towards the centre: a reflex corner of the rim.
+        let mut dented = fan(|_| 0.0);
+        let pulled = DVec3::new(0.2, 0.0, 0.0);
+        dented[0] = Target::new([DVec3::ZERO, pulled, dented[0].corners[2]], [0, 1, 2]);
+        dented[5] = Target::new([DVec3::ZERO, dented[5].corners[1], pulled], [0, 6, 1]);
+        assert!(FlattenedFan::around(0, &dented).is_none());
+        // A rim vertex folded back over the centre: two targets overlap once projected.
+        let mut folded = fan(|_| 0.0);
+        let over = DVec3::new(-0.3, 0.0, 0.5);
+        folded[0] = Target::new([DVec3::ZERO, over, folded[0].corners[2]], [0, 1, 2]);
+        folded[5] = Target::new([DVec3::ZERO, folded[5].corners[1], over], [0, 6, 1]);
+        assert!(FlattenedFan::around(0, &folded).is_none());
+        // A steep saddle still flattens (a height field over the plane), but its lift makes
+        // the bound no better than the lift itself: sound, if useless.
+        let saddle = fan(|angle| 3.0 * (2.0 * angle).cos());
+        let part = [
+            DVec3::ZERO,
+            DVec3::new(0.1, 0.0, 0.0),
+            DVec3::new(0.0, 0.1, 0.0),
+        ];
+        assert!(FlattenedFan::around(0, &saddle).unwrap().bound(part) >= 3.0);
+    }
+
     #[test]
     fn pieces_go_to_the_triangle_they_lie_near_and_are_split_between_two() {
         let square = square_mesh(0.0);
@@ -569,13 +810,13 @@ mod tests {
             DVec3::new(0.2, 0.3, 0.05),
         ];
         let piece = |corners| (Attached { source: 0, corners }, None);
-        let placed = place_pieces(vec![piece(across)], &targets, 0.06).unwrap();
+        let placed = place_pieces(&[piece(across)], &targets, 0.06).unwrap();
         assert!(!placed[0].is_empty() && !placed[1].is_empty());
         let far = [
             DVec3::new(0.5, 0.5, 0.2),
             DVec3::new(0.6, 0.5, 0.2),
             DVec3::new(0.5, 0.6, 0.2),
         ];
-        assert!(place_pieces(vec![piece(far)], &targets, 0.1).is_none());
+        assert!(place_pieces(&[piece(far)], &targets, 0.1).is_none());
     }
 }

@@ -7,7 +7,7 @@
 //!
 //! Collapses are taken greedily in the order of Garland–Heckbert's quadric error (`quadric`),
 //! each at the first of a few positions (the quadric's minimiser, the best point of the edge,
-//! its endpoints, the first of these moved half the bound off the surface either way) that
+//! its endpoints, the first of these moved ¼, ½ and ¾ of the bound off the surface either way) that
 //! passes every check (in the order of the list below, except that the
 //! input's side of the distance bound, which fails most often, comes before the search for
 //! self-intersections):
@@ -37,7 +37,7 @@ use std::collections::BinaryHeap;
 
 use glam::DVec3;
 
-use self::error_bound::{tested_limit, Attached, Attachments, InputSurface, Target};
+use self::error_bound::{tested_limit, Attached, Attachments, Displaced, InputSurface, Target};
 use self::quadric::Quadric;
 use self::triangle_grid::{Bounds, TriangleGrid};
 use crate::allocation;
@@ -334,9 +334,11 @@ impl Simplifier {
         };
         let q = self.quadrics[a as usize] + self.quadrics[b as usize];
         let mut tried = q.placements(self.points[a as usize], self.points[b as usize]);
-        // Then the best of those half the bound off the surface, on either side: where the
-        // surface curves, a vertex on it makes chords that sag to one side, and one off it
-        // splits the error between both.
+        // Then the best of those moved off the surface, on either side: where the surface
+        // curves, a vertex on it makes chords that sag to one side, and one off it splits the
+        // error between both. Half the bound first; a quarter and three quarters take 3.7%
+        // fewer triangles on the aorta at 0.1 mm for 8% more time (an eighth-step ladder only
+        // 2% more).
         let normal = star
             .moved
             .iter()
@@ -348,10 +350,16 @@ impl Simplifier {
             .sum::<DVec3>()
             .normalize_or_zero();
         let best = tried[0].1;
-        let offset = normal * (0.5 * self.limit);
-        tried.extend([(0.0, best + offset), (0.0, best - offset)]);
+        tried.extend(
+            [0.5, -0.5, 0.25, -0.25, 0.75, -0.75]
+                .map(|fraction| (0.0, best + normal * (fraction * self.limit))),
+        );
+        let from: Vec<u32> = star.deleted.iter().chain(&star.moved).copied().collect();
+        let displaced = self
+            .pieces
+            .displaced(&from, |t| star.moved.binary_search(&t).ok());
         for (_, position) in tried {
-            if let Some(admitted) = self.admissible(&star, position) {
+            if let Some(admitted) = self.admissible(&star, &displaced, position) {
                 return self.commit(&star, position, admitted);
             }
         }
@@ -373,7 +381,12 @@ impl Simplifier {
     }
 
     /// Checks 2–4 for the collapse of `star` to `position`.
-    fn admissible(&mut self, star: &Star, position: DVec3) -> Option<Admitted> {
+    fn admissible(
+        &mut self,
+        star: &Star,
+        displaced: &Displaced,
+        position: DVec3,
+    ) -> Option<Admitted> {
         let after: Vec<([DVec3; 3], [u32; 3])> = star
             .moved
             .iter()
@@ -399,9 +412,7 @@ impl Simplifier {
             .iter()
             .map(|&(corners, vertices)| Target::new(corners, vertices))
             .collect();
-        let from: Vec<u32> = star.deleted.iter().chain(&star.moved).copied().collect();
-        let slot_of = |t: u32| star.moved.binary_search(&t).ok();
-        let placed = self.pieces.place(&from, slot_of, &targets, self.limit)?;
+        let placed = displaced.place(&targets, self.limit)?;
         if self.intersects_after(star, &after) {
             return None;
         }
