@@ -43,7 +43,11 @@ fuzz_target!(|data: &[u8]| {
     );
     let params = BalloonParams {
         max_iterations: 1 + u32::from(bytes.byte()) % 80,
-        max_vertices: 20_000,
+        // A balloon that fills its box reparametrises over and over below 20,000 vertices
+        // (about 1 s a run in a release build, 10-20 s under the instrumentation), so a corpus
+        // of them took a whole 15-minute run to replay; at 6,000 it ends as a leak in 0.2 s.
+        // Reparametrisation stays covered by the smaller balloons that need it.
+        max_vertices: 6_000,
         reference: (bytes.byte() % 4 == 0).then(|| between(&mut bytes, 0.0, 255.0)),
         tolerance: (bytes.byte() % 4 == 0).then(|| between(&mut bytes, 1.0, 200.0)),
         edge_length: (bytes.byte() % 4 == 0)
