@@ -206,7 +206,8 @@ typedef struct BalloonObjectSeeds {
 // Returns non-zero to cancel the running call, which then returns BALLOON_CANCELLED. It is
 // called only from the thread that called the library, with the fraction done (0 to 1) and
 // the phase's name ("inflation", "self-intersection", "reparametrization", "refinement",
-// "validation"), a string valid during the call only. It must not unwind (throw) into the
+// "validation", and "simplification" with simplify_error_mm set, for the second half of the
+// run), a string valid during the call only. It must not unwind (throw) into the
 // library, nor call the library with the same handle.
 typedef int (*BalloonProgressCallback)(double fraction, const char *phase, void *user_data);
 
@@ -226,6 +227,8 @@ typedef struct BalloonStats {
   double seconds_reparametrization;
   double seconds_refinement;
   double seconds_validation;
+  // Only with simplify_error_mm set.
+  double seconds_simplification;
   double seconds_total;
 } BalloonStats;
 

@@ -186,7 +186,7 @@ fn segment_simplifies_its_result_and_carries_the_vertex_states_over() {
     )
     .unwrap();
     let full = objects[0].clone();
-    simplify_objects(&mut objects, 0.1).unwrap();
+    simplify_objects(&mut objects, 0.1, |_| true).unwrap();
     let out = &objects[0];
     assert!(assert_guarantees(&full.mesh, &out.mesh, 0.1) < 0.8);
     assert_eq!(out.states.len(), out.mesh.points().len());

@@ -138,6 +138,7 @@ class BalloonStats(Structure):
         ("seconds_reparametrization", c_double),
         ("seconds_refinement", c_double),
         ("seconds_validation", c_double),
+        ("seconds_simplification", c_double),
         ("seconds_total", c_double),
     ]
 

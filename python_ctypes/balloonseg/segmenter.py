@@ -188,6 +188,7 @@ def _stats_dict(s: L.BalloonStats) -> dict:
             "reparametrization": s.seconds_reparametrization,
             "refinement": s.seconds_refinement,
             "validation": s.seconds_validation,
+            "simplification": s.seconds_simplification,
             "total": s.seconds_total,
         },
     }

@@ -66,6 +66,22 @@ def test_progress_is_reported_with_fractions_and_phases(y_vessel):
     assert_same_mesh(mesh, *_plain(voxels, seed, geometry))
 
 
+def test_a_simplification_reports_the_second_half_of_the_run(y_vessel):
+    _, voxels, geometry, seed = y_vessel
+    calls = []
+    mesh = balloonseg.segment(
+        voxels, seed, progress=lambda f, p: calls.append((f, p)), simplify_mm=0.1, **geometry
+    )
+    method = [f for f, p in calls if p != "simplification"]
+    simplification = [f for f, p in calls if p == "simplification"]
+    assert method and simplification, calls
+    assert {p for _, p in calls} <= PHASES | {"simplification"}
+    assert all(0.0 <= f <= 0.5 for f in method)
+    assert all(0.5 <= f <= 1.0 for f in simplification)
+    assert calls[-1][1] == "simplification"
+    assert mesh.stats["seconds"]["simplification"] > 0.0
+
+
 def _plain(voxels, seed, geometry):
     m = balloonseg.segment(voxels, seed, **geometry)
     return m.points, m.triangles, m.vertex_state

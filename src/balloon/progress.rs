@@ -14,6 +14,8 @@ pub enum Phase {
     Reparametrization,
     Refinement,
     Validation,
+    /// Only with `simplify_error_mm` set: the final mesh simplified within it.
+    Simplification,
 }
 
 impl Phase {
@@ -24,6 +26,7 @@ impl Phase {
             Phase::Reparametrization => "reparametrization",
             Phase::Refinement => "refinement",
             Phase::Validation => "validation",
+            Phase::Simplification => "simplification",
         }
     }
 }
@@ -39,6 +42,7 @@ pub struct PhaseSeconds {
     pub reparametrization: f64,
     pub refinement: f64,
     pub validation: f64,
+    pub simplification: f64,
 }
 
 impl PhaseSeconds {
@@ -48,6 +52,7 @@ impl PhaseSeconds {
             + self.reparametrization
             + self.refinement
             + self.validation
+            + self.simplification
     }
 
     pub(super) fn add(&mut self, phase: Phase, seconds: f64) {
@@ -57,6 +62,7 @@ impl PhaseSeconds {
             Phase::Reparametrization => &mut self.reparametrization,
             Phase::Refinement => &mut self.refinement,
             Phase::Validation => &mut self.validation,
+            Phase::Simplification => &mut self.simplification,
         } += seconds;
     }
 }
@@ -67,7 +73,16 @@ impl<'p> Segmenter<'_, 'p> {
         self.progress = callback;
     }
 
+    /// `fraction` is of the method for every phase but the simplification, of the
+    /// simplification for it. With a simplification to follow, the method reports the first
+    /// half of the run and the simplification the second: on the scans it takes about as long
+    /// as the method, or longer.
     pub(super) fn report(&mut self, fraction: f64, phase: Phase) -> Result<()> {
+        let fraction = match (phase, self.params.simplification()) {
+            (_, None) => fraction,
+            (Phase::Simplification, Some(_)) => 0.5 + 0.5 * fraction,
+            (_, Some(_)) => 0.5 * fraction,
+        };
         let go_on = match &mut self.progress {
             Some(callback) => callback(fraction.clamp(0.0, 1.0), phase),
             None => true,

@@ -436,7 +436,12 @@ impl<'v, 'p> Segmenter<'v, 'p> {
         let (mesh, states) = self.finish(budget - used)?;
         match self.params.simplification() {
             Some(max_error) => {
-                let (simplified, states) = simplify_with_states(&mesh, &states, max_error)
+                let (simplified, states) = self
+                    .timed(Phase::Simplification, |s| {
+                        simplify_with_states(&mesh, &states, max_error, |fraction| {
+                            s.report(fraction, Phase::Simplification).is_ok()
+                        })
+                    })
                     .map_err(|e| e.context("cannot simplify the segmentation"))?;
                 Ok((simplified.mesh, states))
             }
@@ -639,6 +644,40 @@ mod tests {
         let (mesh, states) = s.mesh();
         assert_eq!(mesh.points().len(), states.len());
         assert!(mesh_checks::check(&mesh).closed());
+    }
+
+    #[test]
+    fn a_simplification_reports_the_second_half_of_the_run_and_can_be_cancelled() {
+        let p = phantom::render(Shape::Sphere, &PhantomOptions::default()).unwrap();
+        let params = BalloonParams {
+            simplify_error_mm: 0.1,
+            ..BalloonParams::default()
+        };
+        let seen = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+        let mut s = Segmenter::new(p.image.view(), params.clone(), p.seed_world()).unwrap();
+        let log = std::rc::Rc::clone(&seen);
+        s.set_progress(Some(Box::new(move |fraction, phase| {
+            log.borrow_mut().push((fraction, phase));
+            true
+        })));
+        s.segment().unwrap();
+        assert!(s.stats().seconds.simplification > 0.0, "{:?}", s.stats());
+        let seen = seen.borrow();
+        let (method, simplification): (Vec<_>, Vec<_>) = seen
+            .iter()
+            .partition(|(_, phase)| *phase != Phase::Simplification);
+        assert!(!simplification.is_empty(), "{seen:?}");
+        assert!(method.iter().all(|(f, _)| *f <= 0.5), "{method:?}");
+        assert!(simplification.iter().all(|(f, _)| (0.5..=1.0).contains(f)));
+        // The simplification comes last.
+        assert_eq!(seen.last().unwrap().1, Phase::Simplification);
+
+        let mut s = Segmenter::new(p.image.view(), params, p.seed_world()).unwrap();
+        s.set_progress(Some(Box::new(|_, phase| phase != Phase::Simplification)));
+        let e = s.segment().unwrap_err();
+        assert_eq!(e.kind(), crate::ErrorKind::Cancelled);
+        assert!(e.message().contains("simplification"), "{}", e.message());
+        assert!(s.stats().seconds.simplification > 0.0);
     }
 
     #[test]

@@ -63,6 +63,8 @@ pub struct BalloonStats {
     pub seconds_reparametrization: f64,
     pub seconds_refinement: f64,
     pub seconds_validation: f64,
+    /// Only with simplify_error_mm set.
+    pub seconds_simplification: f64,
     pub seconds_total: f64,
 }
 
@@ -81,6 +83,7 @@ impl From<&SegmentationStats> for BalloonStats {
             seconds_reparametrization: seconds.reparametrization,
             seconds_refinement: seconds.refinement,
             seconds_validation: seconds.validation,
+            seconds_simplification: seconds.simplification,
             seconds_total: seconds.total(),
         }
     }
@@ -89,7 +92,8 @@ impl From<&SegmentationStats> for BalloonStats {
 /// Returns non-zero to cancel the running call, which then returns BALLOON_CANCELLED. It is
 /// called only from the thread that called the library, with the fraction done (0 to 1) and
 /// the phase's name ("inflation", "self-intersection", "reparametrization", "refinement",
-/// "validation"), a string valid during the call only. It must not unwind (throw) into the
+/// "validation", and "simplification" with simplify_error_mm set, for the second half of the
+/// run), a string valid during the call only. It must not unwind (throw) into the
 /// library, nor call the library with the same handle.
 pub type BalloonProgressCallback = Option<
     unsafe extern "C" fn(fraction: f64, phase: *const c_char, user_data: *mut c_void) -> c_int,

@@ -128,7 +128,7 @@ pub fn segment_objects<'v, 'p>(
             segmenter: start().map_err(|e| e.context(&name))?,
         });
     }
-    share_progress(&mut members, progress);
+    let shared = share_progress(&mut members, progress);
     // One balloon's `segment` simplifies its own result; the objects are simplified together,
     // below, so that their simplified surfaces do not cross.
     let (results, together) = if members.len() == 1 {
@@ -151,7 +151,12 @@ pub fn segment_objects<'v, 'p>(
         })
         .collect();
     if let Some(max_error) = together {
-        simplify_objects(&mut objects, max_error)
+        // The members reported the first half of the run (see `Segmenter::report`).
+        let progress = |fraction: f64| match &shared {
+            Some(shared) => (shared.borrow_mut().0)(0.5 + 0.5 * fraction, Phase::Simplification),
+            None => true,
+        };
+        simplify_objects(&mut objects, max_error, progress)
             .map_err(|e| e.context("cannot simplify the segmentation"))?;
     }
     Ok(objects)
@@ -415,11 +420,16 @@ fn check_apart(
     Ok(())
 }
 
-/// One progress callback for all members: the mean of their fractions.
-fn share_progress<'p>(members: &mut [Member<'_, 'p>], progress: Option<ProgressCallback<'p>>) {
-    let Some(callback) = progress else {
-        return;
-    };
+/// The caller's progress callback, shared by the members, with each member's last fraction.
+type SharedProgress<'p> = Rc<RefCell<(ProgressCallback<'p>, Vec<f64>)>>;
+
+/// One progress callback for all members: the mean of their fractions. Returned for what
+/// follows the members' runs.
+fn share_progress<'p>(
+    members: &mut [Member<'_, 'p>],
+    progress: Option<ProgressCallback<'p>>,
+) -> Option<SharedProgress<'p>> {
+    let callback = progress?;
     let n = members.len();
     let shared = Rc::new(RefCell::new((callback, vec![0.0; n])));
     for (i, member) in members.iter_mut().enumerate() {
@@ -433,6 +443,7 @@ fn share_progress<'p>(members: &mut [Member<'_, 'p>], progress: Option<ProgressC
                 callback(mean, phase)
             })));
     }
+    Some(shared)
 }
 
 /// Labels positive and distinct, every object seeded, not too many objects, and no voxel

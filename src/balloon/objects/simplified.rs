@@ -7,7 +7,7 @@
 use crate::balloon::surface::VertexState;
 use crate::error::Result;
 use crate::mesh::TriMesh;
-use crate::simplification::{simplify, Simplified, NO_VERTEX};
+use crate::simplification::{simplify_with_progress, Simplified, NO_VERTEX};
 
 use super::SegmentedObject;
 
@@ -23,13 +23,14 @@ fn settledness(state: VertexState) -> u8 {
 
 /// `mesh` simplified within `max_error_mm` (both ways), with the state of each of its
 /// vertices: the least settled (`settledness`) of the input vertices merged into it, given one
-/// state per input point in `states`. Errors as `simplify`.
+/// state per input point in `states`. Progress and errors as `simplify_with_progress`.
 pub(in crate::balloon) fn simplify_with_states(
     mesh: &TriMesh,
     states: &[VertexState],
     max_error_mm: f64,
+    progress: impl FnMut(f64) -> bool,
 ) -> Result<(Simplified, Vec<VertexState>)> {
-    let simplified = simplify(mesh, max_error_mm)?;
+    let simplified = simplify_with_progress(mesh, max_error_mm, progress)?;
     let mut merged: Vec<Option<VertexState>> = vec![None; simplified.mesh.points().len()];
     for (&v, &s) in simplified.vertex_map.iter().zip(states) {
         if v == NO_VERTEX {
@@ -46,13 +47,17 @@ pub(in crate::balloon) fn simplify_with_states(
 }
 
 /// Replaces every object's mesh by its simplification within `max_error_mm` (both ways), with
-/// its vertex states merged as `settledness` says. Errors as `simplify`; the objects are left
-/// as they were then.
+/// its vertex states merged as `settledness` says. Progress and errors as `simplify_with_progress`;
+/// on an error (a cancel too) the objects are left as they were.
 ///
 /// Simplified in one mesh, the objects cannot cross; the kernel keeps the bound per component,
 /// so each object's result is within `max_error_mm` of its own balloon even where two objects
 /// are closer than that.
-pub fn simplify_objects(objects: &mut [SegmentedObject], max_error_mm: f64) -> Result<()> {
+pub fn simplify_objects(
+    objects: &mut [SegmentedObject],
+    max_error_mm: f64,
+    progress: impl FnMut(f64) -> bool,
+) -> Result<()> {
     let Some(first) = objects.first() else {
         return Ok(());
     };
@@ -62,7 +67,7 @@ pub fn simplify_objects(objects: &mut [SegmentedObject], max_error_mm: f64) -> R
         all.append(&object.mesh)?;
         states.extend_from_slice(&object.states);
     }
-    let (simplified, state) = simplify_with_states(&all, &states, max_error_mm)?;
+    let (simplified, state) = simplify_with_states(&all, &states, max_error_mm, progress)?;
     let count = simplified.mesh.points().len();
     // A collapse never joins two components, so the input vertices merged into one output
     // vertex all belong to one object.

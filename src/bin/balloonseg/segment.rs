@@ -327,7 +327,7 @@ fn draw_progress(fraction: f64, phase: Phase) -> bool {
 }
 
 /// Redraws the bar on standard error's line: `fraction` done of the stage `name`.
-fn draw_bar(fraction: f64, name: &str) -> bool {
+pub fn draw_bar(fraction: f64, name: &str) -> bool {
     let width = 30;
     let filled = (fraction * width as f64).round() as usize;
     let mut err = std::io::stderr();
@@ -390,6 +390,7 @@ fn stats_json(
             "reparametrization": s.reparametrization,
             "refinement": s.refinement,
             "validation": s.validation,
+            "simplification": s.simplification,
             "total": total,
         },
     }))

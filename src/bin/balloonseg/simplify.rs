@@ -1,11 +1,12 @@
 //! `balloonseg simplify MESH --max-error MM -o OUT`: error-bounded simplification of any closed
 //! mesh (the library's `simplification::simplify`).
 
+use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use balloonseg::{io, simplification::simplify, Result};
+use balloonseg::{io, simplification::simplify_with_progress, Result};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -22,7 +23,18 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<ExitCode> {
     let mesh = io::read_mesh(&args.mesh)?;
     let start = Instant::now();
-    let simplified = simplify(&mesh, args.max_error)
+    // A bar on a terminal: a mesh of a million triangles takes minutes.
+    let drawn = std::io::stderr().is_terminal();
+    let simplified = simplify_with_progress(&mesh, args.max_error, |fraction| {
+        if drawn {
+            crate::segment::draw_bar(fraction, "simplification");
+        }
+        true
+    });
+    if drawn {
+        eprintln!();
+    }
+    let simplified = simplified
         .map_err(|e| e.context(format!("cannot simplify {}", crate::shown(&args.mesh))))?;
     let seconds = start.elapsed().as_secs_f64();
     io::write_mesh(&args.output.path, &simplified.mesh, &[])?;

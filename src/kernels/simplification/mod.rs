@@ -75,6 +75,18 @@ pub struct Simplified {
 /// open, non-manifold, inconsistently oriented, or that has self-intersecting or degenerate
 /// triangles (invalid mesh, saying which).
 pub fn simplify(mesh: &TriMesh, max_error_mm: f64) -> Result<Simplified> {
+    simplify_with_progress(mesh, max_error_mm, |_| true)
+}
+
+/// [`simplify`], telling `progress` now and then the fraction done (0 to 1, never decreasing;
+/// an estimate from the queue of collapses, whose length is not known in advance). When it
+/// returns `false` the simplification stops with a cancelled error and nothing is returned.
+/// The result does not depend on the callback.
+pub fn simplify_with_progress(
+    mesh: &TriMesh,
+    max_error_mm: f64,
+    mut progress: impl FnMut(f64) -> bool,
+) -> Result<Simplified> {
     if !(max_error_mm.is_finite() && max_error_mm > 0.0) {
         return Err(Error::invalid_argument(format!(
             "the maximum error is {max_error_mm} mm; give a positive distance in millimetres, \
@@ -83,7 +95,7 @@ pub fn simplify(mesh: &TriMesh, max_error_mm: f64) -> Result<Simplified> {
     }
     check_simplifiable(mesh)?;
     let mut simplifier = Simplifier::new(mesh, max_error_mm)?;
-    simplifier.run()?;
+    simplifier.run(&mut progress)?;
     simplifier.into_result()
 }
 
@@ -235,8 +247,22 @@ impl Simplifier {
         Ok(simplifier)
     }
 
-    fn run(&mut self) -> Result<()> {
+    fn run(&mut self, progress: &mut dyn FnMut(f64) -> bool) -> Result<()> {
+        /// Queue entries taken between two reports.
+        const REPORT_EVERY: usize = 1024;
+        let (mut popped, mut reported) = (0usize, 0.0f64);
         while let Some(Reverse((_, a, b, stamp_a, stamp_b))) = self.queue.pop() {
+            popped += 1;
+            if popped % REPORT_EVERY == 0 {
+                // Every collapse queues its neighbourhood again, so the queue's length only
+                // bounds what is left; the estimate rises to 1 as it drains.
+                reported = reported.max(popped as f64 / (popped + self.queue.len()) as f64);
+                if !progress(reported) {
+                    return Err(Error::cancelled(
+                        "cancelled by the progress callback during simplification",
+                    ));
+                }
+            }
             if self.stamps[a as usize] != stamp_a
                 || self.stamps[b as usize] != stamp_b
                 || self.around[a as usize].is_empty()
@@ -649,6 +675,29 @@ mod tests {
             assert_guarantees(&sphere, &out, max_error);
             assert!(out.mesh.triangles().len() * 2 < sphere.triangles().len());
         }
+    }
+
+    #[test]
+    fn progress_rises_to_the_end_and_a_cancel_returns_nothing() {
+        let sphere = icosphere(DVec3::ZERO, 10.0, 4);
+        let mut fractions = Vec::new();
+        let out = simplify_with_progress(&sphere, 0.05, |f| {
+            fractions.push(f);
+            true
+        })
+        .unwrap();
+        assert_eq!(out, simplify(&sphere, 0.05).unwrap());
+        assert!(fractions.len() >= 3, "{fractions:?}");
+        assert!(fractions.windows(2).all(|w| w[0] <= w[1]), "{fractions:?}");
+        assert!(fractions[0] > 0.0 && fractions[fractions.len() - 1] <= 1.0);
+        let mut calls = 0;
+        let cancelled = simplify_with_progress(&sphere, 0.05, |_| {
+            calls += 1;
+            calls < 2
+        })
+        .unwrap_err();
+        assert_eq!(cancelled.kind(), crate::ErrorKind::Cancelled);
+        assert!(cancelled.message().contains("simplification"));
     }
 
     #[test]
