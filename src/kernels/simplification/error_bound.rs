@@ -18,21 +18,25 @@
 //!   convexity argument instead of samples, so the bound covers every point, not only sampled
 //!   ones.
 //! - **Output within ε of the input.** Each triangle a collapse makes is tested against the
-//!   input triangles near it (`InputSurface::covers`): pieces within `ε` of one input triangle
-//!   pass, and so do pieces whose corners are within `ε − ℓ/√3` of the input, `ℓ` the piece's
-//!   longest edge (the distance to a set is 1-Lipschitz, and every point of a triangle is
-//!   within `ℓ/√3` of a corner), pieces over two adjacent input triangles that unfold into
-//!   a convex quadrilateral within the bound (`FlattenedPair`), and pieces over the triangles
-//!   around an input vertex that flatten into a convex polygon within the bound
-//!   (`FlattenedFan`); the others are cut into quarters, whose reach shrinks. A corner farther than `ε` from the input disproves the
-//!   triangle at once.
+//!   input triangles near it (`InputSurface::covers`, which finds them in a `BoxTree`): first
+//!   whole, by the input's sheet under it (`sheet_cover`); failing that, in pieces. Pieces
+//!   within `ε` of one input triangle pass, and so do pieces whose corners are within
+//!   `ε − ℓ/√3` of the input, `ℓ` the piece's longest edge (the distance to a set is
+//!   1-Lipschitz, and every point of a triangle is within `ℓ/√3` of a corner), pieces over two
+//!   adjacent input triangles that unfold into a convex quadrilateral within the bound
+//!   (`FlattenedPair`), and pieces over the triangles around an input vertex that flatten into
+//!   a convex polygon within the bound (`FlattenedFan`); the others are cut into quarters,
+//!   whose reach shrinks. A corner farther than `ε` from the input disproves the triangle at
+//!   once.
 //!
 //! Distances are computed in f64 against a limit `ε·(1 − 1e-9)`, which keeps the rounding of
 //! the distance computation inside the bound.
 
 use glam::DVec3;
 
-use super::triangle_grid::{Bounds, TriangleGrid};
+use super::box_tree::BoxTree;
+use super::sheet_cover::covered_by_sheet;
+use super::triangle_grid::Bounds;
 use crate::allocation;
 use crate::closest_point::Triangle;
 use crate::error::Result;
@@ -72,31 +76,27 @@ fn corner_reach([a, b, c]: Piece) -> f64 {
 /// each keeps the bound to its own surface.
 pub(super) struct InputSurface {
     triangles: Vec<Target>,
-    bounds: Vec<Bounds>,
     /// The connected component of each input triangle.
     components: Vec<u32>,
-    grid: TriangleGrid,
+    /// The triangles' boxes.
+    tree: BoxTree,
 }
 
 impl InputSurface {
     /// `components` labels each triangle of `mesh` with its connected component.
-    pub(super) fn new(mesh: &TriMesh, components: Vec<u32>, cell: f64) -> Result<InputSurface> {
+    pub(super) fn new(mesh: &TriMesh, components: Vec<u32>) -> Result<InputSurface> {
         let count = mesh.triangles().len();
-        let mut grid = TriangleGrid::new(cell);
         let mut triangles = allocation::with_capacity(count, "the input's triangles")?;
         let mut bounds = allocation::with_capacity(count, "the input's boxes")?;
-        for t in 0..mesh.triangles().len() {
+        for t in 0..count {
             let corners = mesh.corners(t);
-            let b = Bounds::of(corners);
-            grid.try_insert(t as u32, &b)?;
             triangles.push(Target::new(corners, mesh.triangles()[t]));
-            bounds.push(b);
+            bounds.push(Bounds::of(corners));
         }
         Ok(InputSurface {
             triangles,
-            bounds,
             components,
-            grid,
+            tree: BoxTree::new(bounds)?,
         })
     }
 
@@ -115,18 +115,17 @@ impl InputSurface {
         scratch: &mut Vec<u32>,
     ) -> bool {
         let reach = Bounds::of(triangle).grown(limit);
-        self.grid.query(&reach, scratch);
+        self.tree.query(&reach, scratch);
         // Every triangle of the component within `limit` of the triangle is among these, so a
         // corner farther than `limit` from all of them is that far from the whole component.
         let near: Vec<Target> = scratch
             .iter()
-            .filter(|&&t| {
-                self.components[t as usize] == component && self.bounds[t as usize].overlaps(&reach)
-            })
+            .filter(|&&t| self.components[t as usize] == component)
             .map(|&t| self.triangles[t as usize])
             .collect();
         !near.is_empty()
-            && divide_onto(triangle, None, &near, limit, Fallback::Lipschitz, |_, _| {})
+            && (covered_by_sheet(triangle, &near, limit)
+                || divide_onto(triangle, None, &near, limit, Fallback::Lipschitz, |_, _| {}))
     }
 }
 
@@ -255,8 +254,16 @@ impl Target {
         }
     }
 
-    fn distance_squared(&self, p: DVec3) -> f64 {
+    pub(super) fn distance_squared(&self, p: DVec3) -> f64 {
         self.triangle.distance_squared(p)
+    }
+
+    pub(super) fn corners(&self) -> [DVec3; 3] {
+        self.corners
+    }
+
+    pub(super) fn vertices(&self) -> [u32; 3] {
+        self.vertices
     }
 
     fn unit_normal(&self) -> DVec3 {
@@ -669,7 +676,7 @@ mod tests {
 
     #[test]
     fn a_triangle_over_two_input_triangles_is_covered_when_close_and_not_when_far() {
-        let input = InputSurface::new(&square_mesh(0.0), vec![0, 0], 0.5).unwrap();
+        let input = InputSurface::new(&square_mesh(0.0), vec![0, 0]).unwrap();
         let mut scratch = Vec::new();
         let over = |z: f64| {
             [

@@ -28,8 +28,10 @@
 //!
 //! Collapses run one after the other, so the result is the same for any number of threads.
 
+mod box_tree;
 mod error_bound;
 mod quadric;
+mod sheet_cover;
 mod triangle_grid;
 
 use std::cmp::Reverse;
@@ -221,7 +223,7 @@ impl Simplifier {
             alive: allocation::filled(triangles.len(), true, "the triangles' flags")?,
             stamps: allocation::filled(points.len(), 0, "the vertices' stamps")?,
             merged_into: allocation::collect(0..points.len() as u32, "the vertex map")?,
-            input: InputSurface::new(mesh, components, mean_edge.max(max_error))?,
+            input: InputSurface::new(mesh, components)?,
             volumes,
             limit: tested_limit(max_error),
             cos_min_angle: MIN_ANGLE_DEGREES.to_radians().cos(),
