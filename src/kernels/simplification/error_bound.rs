@@ -660,6 +660,26 @@ fn divide_onto(
     true
 }
 
+/// The largest distance from a lattice of points on `part` (40 steps a side) to the nearest
+/// of `targets`: what the proofs' bounds must not fall below.
+#[cfg(test)]
+pub(super) fn farthest_sample(part: Piece, targets: &[Target]) -> f64 {
+    const STEPS: usize = 40;
+    let [a, b, c] = part;
+    (0..=STEPS)
+        .flat_map(|i| (0..=STEPS - i).map(move |j| (i, j)))
+        .map(|(i, j)| {
+            let (u, v) = (i as f64 / STEPS as f64, j as f64 / STEPS as f64);
+            let p = a + (b - a) * u + (c - a) * v;
+            targets
+                .iter()
+                .map(|t| t.distance_squared(p))
+                .fold(f64::INFINITY, f64::min)
+                .sqrt()
+        })
+        .fold(0.0, f64::max)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -712,17 +732,8 @@ mod tests {
         let bound = pair.bound(across);
         assert!(bound < 0.08, "{bound}");
         // Sound: no point of the part is farther from the pair than the bound.
-        for i in 0..=20 {
-            for j in 0..=20 - i {
-                let (u, v) = (i as f64 / 20.0, j as f64 / 20.0);
-                let p = across[0] + (across[1] - across[0]) * u + (across[2] - across[0]) * v;
-                let d = first
-                    .distance_squared(p)
-                    .min(second.distance_squared(p))
-                    .sqrt();
-                assert!(d <= bound, "{d} > {bound} at {p}");
-            }
-        }
+        let farthest = farthest_sample(across, &[first, second]);
+        assert!(farthest <= bound, "{farthest} > {bound}");
         // Folded onto itself (not convex once unfolded): no pair.
         let onto = Target::new([e0, e1, DVec3::new(0.9, 0.2, 0.01)], [0, 2, 4]);
         assert!(FlattenedPair::new(&first, &onto).is_none());
@@ -761,18 +772,8 @@ mod tests {
         ];
         let bound = fan.bound(part);
         assert!(bound < 0.12, "{bound}");
-        for i in 0..=30 {
-            for j in 0..=30 - i {
-                let (u, v) = (i as f64 / 30.0, j as f64 / 30.0);
-                let p = part[0] + (part[1] - part[0]) * u + (part[2] - part[0]) * v;
-                let d = targets
-                    .iter()
-                    .map(|t| t.distance_squared(p))
-                    .fold(f64::INFINITY, f64::min)
-                    .sqrt();
-                assert!(d <= bound, "{d} > {bound} at {p}");
-            }
-        }
+        let farthest = farthest_sample(part, &targets);
+        assert!(farthest <= bound, "{farthest} > {bound}");
         // Not a fan for a vertex on its rim, nor with a target missing.
         assert!(FlattenedFan::around(1, &targets).is_none());
         assert!(FlattenedFan::around(0, &targets[1..]).is_none());

@@ -81,7 +81,7 @@ fn within_over(corners: [DVec2; 3], heights: [f64; 3], triangle: [DVec2; 3], lim
     }
     let area = cross(corners[1] - corners[0], corners[2] - corners[0]);
     let height_at = |p: DVec2| {
-        let l1 = cross(p - corners[0], corners[2] - corners[0]) / -area;
+        let l1 = cross(p - corners[0], corners[2] - corners[0]) / area;
         let l2 = cross(corners[1] - corners[0], p - corners[0]) / area;
         heights[0] + (heights[1] - heights[0]) * l1 + (heights[2] - heights[0]) * l2
     };
@@ -156,6 +156,7 @@ fn segment_meets_triangle(p: DVec2, q: DVec2, t: [DVec2; 3], margin: f64) -> boo
 
 #[cfg(test)]
 mod tests {
+    use super::super::error_bound::farthest_sample;
     use super::*;
 
     /// A grid of `n`×`n` squares over [0, size]², each cut into two triangles, lifted by
@@ -192,19 +193,35 @@ mod tests {
         let triangle = inside_triangle(0.05);
         assert!(covered_by_sheet(triangle, &targets, 0.1));
         // Sound: sampled points of the triangle are within the bound of the sheet.
-        for i in 0..=40 {
-            for j in 0..=40 - i {
-                let (s, t) = (i as f64 / 40.0, j as f64 / 40.0);
-                let p =
-                    triangle[0] + (triangle[1] - triangle[0]) * s + (triangle[2] - triangle[0]) * t;
-                let d = targets
-                    .iter()
-                    .map(|q| q.distance_squared(p))
-                    .fold(f64::INFINITY, f64::min)
-                    .sqrt();
-                assert!(d <= 0.1, "{d} at {p}");
-            }
-        }
+        let farthest = farthest_sample(triangle, &targets);
+        assert!(farthest <= 0.1, "{farthest}");
+    }
+
+    #[test]
+    fn heights_are_checked_over_the_overlap_only_and_at_its_true_values() {
+        let output = [DVec2::ZERO, DVec2::new(4.0, 0.0), DVec2::new(0.0, 4.0)];
+        // An input triangle reaching past the output's long edge x + y = 4, its heights 0 at
+        // the two corners over the output and `far` at the corner beyond: linear in between,
+        // so largest over the output where its edges cross the output's, at (3, 1).
+        let input = [
+            DVec2::new(1.0, 1.0),
+            DVec2::new(5.0, 1.0),
+            DVec2::new(1.0, 2.0),
+        ];
+        // At (3, 1) on the output's edge, the height is far·(3 − 1)/4 = far/2.
+        assert!(within_over(input, [0.0, 0.19, 0.0], output, 0.1));
+        assert!(!within_over(input, [0.0, 0.21, 0.0], output, 0.1));
+        // Lifted by 0.06 everywhere: 0.06 + (far − 0.06)/2 at (3, 1). (A sign slip in the
+        // interpolation read 0.06 − (far − 0.06)/2 there and let 0.16 through.)
+        assert!(within_over(input, [0.06, 0.13, 0.06], output, 0.1));
+        assert!(!within_over(input, [0.06, 0.16, 0.06], output, 0.1));
+        // The other corners' heights count where they are over the output.
+        assert!(!within_over(input, [0.0, 0.0, 0.11], output, 0.1));
+        assert!(!within_over(input, [-0.11, 0.0, 0.0], output, 0.1));
+        // Wholly outside the output: nothing of it stands for the output.
+        let outside = input.map(|p| p + DVec2::new(10.0, 0.0));
+        assert!(within_over(outside, [5.0, 5.0, 5.0], output, 0.1));
+        assert!(overlap(outside, output).is_empty());
     }
 
     #[test]
