@@ -67,6 +67,18 @@ impl PhaseSeconds {
     }
 }
 
+/// The fraction of the whole run that `fraction` of the method (or, in its phase, of the
+/// simplification) stands for. With a simplification to follow (`simplifying`), the method
+/// takes the first half of the run and the simplification the second: on the scans it takes
+/// about as long as the method, or longer.
+pub(in crate::balloon) fn of_the_run(fraction: f64, phase: Phase, simplifying: bool) -> f64 {
+    match (phase, simplifying) {
+        (_, false) => fraction,
+        (Phase::Simplification, true) => 0.5 + 0.5 * fraction,
+        (_, true) => 0.5 * fraction,
+    }
+}
+
 impl<'p> Segmenter<'_, 'p> {
     /// Reports progress to the callback, if any; cancels when it says so.
     pub fn set_progress(&mut self, callback: Option<ProgressCallback<'p>>) {
@@ -74,15 +86,9 @@ impl<'p> Segmenter<'_, 'p> {
     }
 
     /// `fraction` is of the method for every phase but the simplification, of the
-    /// simplification for it. With a simplification to follow, the method reports the first
-    /// half of the run and the simplification the second: on the scans it takes about as long
-    /// as the method, or longer.
+    /// simplification for it ([`of_the_run`]).
     pub(super) fn report(&mut self, fraction: f64, phase: Phase) -> Result<()> {
-        let fraction = match (phase, self.params.simplification()) {
-            (_, None) => fraction,
-            (Phase::Simplification, Some(_)) => 0.5 + 0.5 * fraction,
-            (_, Some(_)) => 0.5 * fraction,
-        };
+        let fraction = of_the_run(fraction, phase, self.params.simplification().is_some());
         let go_on = match &mut self.progress {
             Some(callback) => callback(fraction.clamp(0.0, 1.0), phase),
             None => true,

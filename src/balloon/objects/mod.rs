@@ -37,7 +37,7 @@ use crate::balloon::finishing::TOUCHING_EDGE_LENGTHS;
 use crate::balloon::image_model::region::Region;
 use crate::balloon::inflation::Inflation;
 use crate::balloon::params::BalloonParams;
-use crate::balloon::progress::{Phase, ProgressCallback};
+use crate::balloon::progress::{of_the_run, Phase, ProgressCallback};
 use crate::balloon::reparametrization::AfterReparametrization;
 use crate::balloon::segmenter::{SegmentationStats, Segmenter};
 use crate::balloon::surface::{Surface, VertexState};
@@ -151,9 +151,11 @@ pub fn segment_objects<'v, 'p>(
         })
         .collect();
     if let Some(max_error) = together {
-        // The members reported the first half of the run (see `Segmenter::report`).
         let progress = |fraction: f64| match &shared {
-            Some(shared) => (shared.borrow_mut().0)(0.5 + 0.5 * fraction, Phase::Simplification),
+            Some(shared) => {
+                let fraction = of_the_run(fraction, Phase::Simplification, true);
+                (shared.borrow_mut().0)(fraction, Phase::Simplification)
+            }
             None => true,
         };
         simplify_objects(&mut objects, max_error, progress)

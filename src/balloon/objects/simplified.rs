@@ -47,8 +47,8 @@ pub(in crate::balloon) fn simplify_with_states(
 }
 
 /// Replaces every object's mesh by its simplification within `max_error_mm` (both ways), with
-/// its vertex states merged as `settledness` says. Progress and errors as `simplify_with_progress`;
-/// on an error (a cancel too) the objects are left as they were.
+/// its vertex states merged as `settledness` says. Progress and errors as
+/// `simplify_with_progress`; on an error (a cancel too) the objects are left as they were.
 ///
 /// Simplified in one mesh, the objects cannot cross; the kernel keeps the bound per component,
 /// so each object's result is within `max_error_mm` of its own balloon even where two objects

@@ -257,3 +257,36 @@ fn a_vessel_seeded_beside_its_chamber_ends_at_the_opening() {
         );
     }
 }
+
+#[test]
+fn objects_simplified_together_report_the_second_half_of_the_run() {
+    let variant = Family::TouchingPair.variant(1).unwrap();
+    let request = ObjectsRequest {
+        objects: vec![
+            one(1, variant.seed()),
+            one(2, variant.other_seed().unwrap()),
+        ],
+        ..ObjectsRequest::default()
+    };
+    let params = BalloonParams {
+        simplify_error_mm: 0.2,
+        ..BalloonParams::default()
+    };
+    let seen = Rc::new(RefCell::new(Vec::new()));
+    let log = Rc::clone(&seen);
+    let progress: ProgressCallback = Box::new(move |fraction, phase| {
+        log.borrow_mut().push((fraction, phase));
+        true
+    });
+    let objects = segment_objects(variant.image.view(), params, &request, Some(progress)).unwrap();
+    assert_eq!(objects.len(), 2);
+    let seen = seen.borrow();
+    let first = seen
+        .iter()
+        .position(|(_, phase)| *phase == Phase::Simplification)
+        .expect("the simplification reported");
+    assert!(seen[..first].iter().all(|(f, _)| *f <= 0.5), "{seen:?}");
+    assert!(seen[first..]
+        .iter()
+        .all(|(f, phase)| *phase == Phase::Simplification && (0.5..=1.0).contains(f)));
+}

@@ -7,9 +7,9 @@
 //!
 //! Collapses are taken greedily in the order of Garland–Heckbert's quadric error (`quadric`),
 //! each at the first of a few positions (the quadric's minimiser, the best point of the edge,
-//! its endpoints, the first of these moved ¼, ½ and ¾ of the bound off the surface either way) that
-//! passes every check (in the order of the list below, except that the
-//! input's side of the distance bound, which fails most often, comes before the search for
+//! its endpoints, the first of these moved ½, ¼ and ¾ of the bound off the surface either way)
+//! that passes every check (in the order of the list below, except that the input's side of
+//! the distance bound, which fails most often, comes before the search for
 //! self-intersections):
 //! 1. topology: the link condition of Dey et al. (the endpoints' common neighbours are the two
 //!    opposite vertices), and no opposite vertex left with two triangles, so a collapse never
