@@ -79,10 +79,10 @@ fn within_over(corners: [DVec2; 3], heights: [f64; 3], triangle: [DVec2; 3], lim
     if heights.iter().all(|h| h.abs() <= limit) {
         return true;
     }
-    let area = cross(corners[1] - corners[0], corners[2] - corners[0]);
+    let area = (corners[1] - corners[0]).perp_dot(corners[2] - corners[0]);
     let height_at = |p: DVec2| {
-        let l1 = cross(p - corners[0], corners[2] - corners[0]) / area;
-        let l2 = cross(corners[1] - corners[0], p - corners[0]) / area;
+        let l1 = (p - corners[0]).perp_dot(corners[2] - corners[0]) / area;
+        let l2 = (corners[1] - corners[0]).perp_dot(p - corners[0]) / area;
         heights[0] + (heights[1] - heights[0]) * l1 + (heights[2] - heights[0]) * l2
     };
     overlap(corners, triangle)
@@ -96,7 +96,7 @@ fn overlap(a: [DVec2; 3], b: [DVec2; 3]) -> Vec<DVec2> {
     let mut polygon = a.to_vec();
     for k in 0..3 {
         let (from, to) = (b[k], b[(k + 1) % 3]);
-        let side = |p: DVec2| cross(to - from, p - from);
+        let side = |p: DVec2| (to - from).perp_dot(p - from);
         let mut clipped = Vec::with_capacity(polygon.len() + 1);
         for i in 0..polygon.len() {
             let (p, q) = (polygon[i], polygon[(i + 1) % polygon.len()]);
@@ -116,13 +116,9 @@ fn overlap(a: [DVec2; 3], b: [DVec2; 3]) -> Vec<DVec2> {
     polygon
 }
 
-fn cross(a: DVec2, b: DVec2) -> f64 {
-    a.x * b.y - a.y * b.x
-}
-
 /// Whether `p` lies in the counter-clockwise triangle `t`, edges included.
 fn contains(t: [DVec2; 3], p: DVec2) -> bool {
-    (0..3).all(|k| cross(t[(k + 1) % 3] - t[k], p - t[k]) >= 0.0)
+    (0..3).all(|k| (t[(k + 1) % 3] - t[k]).perp_dot(p - t[k]) >= 0.0)
 }
 
 fn point_segment_distance(p: DVec2, a: DVec2, b: DVec2) -> f64 {
@@ -145,8 +141,8 @@ fn segment_meets_triangle(p: DVec2, q: DVec2, t: [DVec2; 3], margin: f64) -> boo
     }
     (0..3).any(|k| {
         let (a, b) = (t[k], t[(k + 1) % 3]);
-        let crosses = cross(b - a, p - a) * cross(b - a, q - a) <= 0.0
-            && cross(q - p, a - p) * cross(q - p, b - p) <= 0.0;
+        let crosses = (b - a).perp_dot(p - a) * (b - a).perp_dot(q - a) <= 0.0
+            && (q - p).perp_dot(a - p) * (q - p).perp_dot(b - p) <= 0.0;
         crosses
             || point_segment_distance(p, a, b) <= margin
             || point_segment_distance(q, a, b) <= margin
