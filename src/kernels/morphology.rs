@@ -65,20 +65,20 @@ pub fn erode(
 ) -> Result<Vec<bool>> {
     let ball = Ball::new(spacing, radius_mm);
     let grid = Grid(dims);
-    let mut near_outside = allocation::zeroed(mask.len(), "an eroded mask's band")?;
-    let mut source: Vec<bool> = allocation::zeroed(mask.len(), "an eroded mask's band")?;
+    let mut eroded = allocation::zeroed(mask.len(), "an eroded mask")?;
     for n in (0..mask.len()).filter(|&n| mask[n]) {
         for m in grid.neighbours(n) {
-            if !mask[m] && !source[m] {
-                source[m] = true;
-                ball.mark(&mut near_outside, grid, m);
+            // Each outside voxel's ball once: from the first of its neighbours inside.
+            if !mask[m] && grid.neighbours(m).find(|&p| mask[p]) == Some(n) {
+                ball.mark(&mut eroded, grid, m);
             }
         }
     }
-    allocation::collect(
-        mask.iter().zip(&near_outside).map(|(&m, &o)| m && !o),
-        "an eroded mask",
-    )
+    // What is marked is near the outside; the rest of the mask is the erosion.
+    for (e, &inside) in eroded.iter_mut().zip(mask) {
+        *e = inside && !*e;
+    }
+    Ok(eroded)
 }
 
 /// The 6-connected components of `mask`: a label per voxel (`u32::MAX` outside the mask),
