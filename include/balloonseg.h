@@ -134,6 +134,14 @@ typedef struct BalloonMesh {
   const uint8_t *vertex_state;
 } BalloonMesh;
 
+// Returns non-zero to cancel the running call, which then returns BALLOON_CANCELLED. It is
+// called only from the thread that called the library, with the fraction done (0 to 1) and
+// the phase's name ("inflation", "self-intersection", "reparametrization", "refinement",
+// "validation", and "simplification" with simplify_error_mm set, for the second half of the
+// run), a string valid during the call only. It must not unwind (throw) into the
+// library, nor call the library with the same handle.
+typedef int (*BalloonProgressCallback)(double fraction, const char *phase, void *user_data);
+
 // What balloon_mesh_check measures about a mesh.
 typedef struct BalloonMeshReport {
   // The caller sets it to sizeof(BalloonMeshReport).
@@ -202,14 +210,6 @@ typedef struct BalloonObjectSeeds {
   const double *points;
   size_t point_count;
 } BalloonObjectSeeds;
-
-// Returns non-zero to cancel the running call, which then returns BALLOON_CANCELLED. It is
-// called only from the thread that called the library, with the fraction done (0 to 1) and
-// the phase's name ("inflation", "self-intersection", "reparametrization", "refinement",
-// "validation", and "simplification" with simplify_error_mm set, for the second half of the
-// run), a string valid during the call only. It must not unwind (throw) into the
-// library, nor call the library with the same handle.
-typedef int (*BalloonProgressCallback)(double fraction, const char *phase, void *user_data);
 
 // What a segmentation did, besides the mesh.
 typedef struct BalloonStats {
@@ -299,7 +299,8 @@ enum BalloonStatus balloon_trimesh_view(const struct BalloonTriMesh *m, struct B
 // `max_error_mm` of the result (proved for every point, not sampled). The result stays closed,
 // 2-manifold, oriented as the input (outward stays outward), free of self-intersections, with
 // the same genus and number of components; no triangle it makes has an angle under 10 degrees.
-// Deterministic; runs on the calling thread.
+// Deterministic; runs on the calling thread. balloon_simplify_with_progress reports its
+// progress and may be cancelled.
 //
 // Errors: BALLOON_NULL_POINTER for a NULL `out`, or NULL arrays with non-zero counts;
 // BALLOON_INVALID_ARGUMENT when `max_error_mm` is not a positive finite distance;
@@ -318,6 +319,23 @@ enum BalloonStatus balloon_simplify(const double *points,
                                     size_t triangle_count,
                                     double max_error_mm,
                                     struct BalloonTriMesh **out);
+
+// balloon_simplify, calling `progress` (NULL = none) with `user_data` on this thread now and
+// then with the fraction done (0 to 1, never decreasing; an estimate, as the number of
+// collapses is not known in advance) and the phase "simplification". Returning non-zero
+// cancels: BALLOON_CANCELLED, and `*out` is not written. The result does not depend on the
+// callback.
+//
+// # Safety
+// As balloon_simplify; `progress` and `user_data` are used during this call only.
+enum BalloonStatus balloon_simplify_with_progress(const double *points,
+                                                  size_t point_count,
+                                                  const uint32_t *triangles,
+                                                  size_t triangle_count,
+                                                  double max_error_mm,
+                                                  BalloonProgressCallback progress,
+                                                  void *user_data,
+                                                  struct BalloonTriMesh **out);
 
 // Where the input points of balloon_simplify went: `*map_out` receives `*count_out` indices,
 // one per input point, each the vertex of `m` that point was merged into, or

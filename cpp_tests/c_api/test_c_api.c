@@ -301,6 +301,16 @@ static int on_progress(double fraction, const char *phase, void *user_data) {
   return p->calls == p->cancel_at;
 }
 
+/* Also flags a phase other than "simplification" and a fraction below the one before. */
+static int on_simplify_progress(double fraction, const char *phase, void *user_data) {
+  Progress *p = (Progress *)user_data;
+  p->bad_phase |= phase == NULL || strcmp(phase, "simplification") != 0 ||
+                  !(fraction >= p->last_fraction && fraction <= 1);
+  p->calls += 1;
+  p->last_fraction = fraction;
+  return p->calls == p->cancel_at;
+}
+
 /* A cancel leaves a usable handle whose mesh is the valid balloon of the last step; the run
  * then completes without the callback, to the same mesh as an uncancelled run. */
 static void test_cancel(void) {
@@ -516,7 +526,32 @@ static void test_simplify(void) {
         "%zu points unused, %zu mapped outside, %zu output vertices without an input", unused,
         outside, missed);
   free(hit);
+
+  /* With a callback: the same mesh, fractions rising within (0, 1] in the phase
+   * "simplification"; a callback that cancels gets BALLOON_CANCELLED and *out stays as it was. */
+  Progress watch = {0, -1, 0.0, 0};
+  BalloonTriMesh *again = NULL;
+  EXPECT_OK(balloon_simplify_with_progress(p, np, t, nt, 0.2, on_simplify_progress, &watch,
+                                           &again));
+  BalloonMesh m2;
+  EXPECT_OK(balloon_trimesh_view(again, &m2));
+  Flat first = flat_copy(&m), second = flat_copy(&m2);
+  CHECK(flat_equal(&first, &second), "the callback changed the mesh");
+  CHECK(watch.calls >= 1 && !watch.bad_phase && watch.last_fraction > 0.0,
+        "%d calls, last fraction %g, bad phase or order %d", watch.calls, watch.last_fraction,
+        watch.bad_phase);
+  flat_free(&first);
+  flat_free(&second);
+  balloon_trimesh_free(again);
   balloon_trimesh_free(out);
+  Progress stop = {0, 1, 0.0, 0};
+  out = sentinel;
+  EXPECT_ERROR(balloon_simplify_with_progress(p, np, t, nt, 0.2, on_simplify_progress, &stop, &out),
+               BALLOON_CANCELLED, "cancelled");
+  CHECK(stop.calls == 1 && out == sentinel, "%d calls, *out written on a cancel", stop.calls);
+  EXPECT_ERROR(balloon_simplify_with_progress(p, np, t, nt, 0.2, NULL, NULL, NULL),
+               BALLOON_NULL_POINTER, "out");
+
   balloon_trimesh_free(sphere);
   free(buffer);
 }

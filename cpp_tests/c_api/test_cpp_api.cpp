@@ -202,6 +202,12 @@ void every_function_once() {
   EXPECT_ERROR(balloon_simplify(m.points, m.point_count, m.triangles, m.triangle_count, -1.0,
                                 &raw_simplified),
                BALLOON_INVALID_ARGUMENT, "positive distance");
+  int simplify_calls = 0;
+  EXPECT_ERROR(balloon_simplify_with_progress(m.points, m.point_count, m.triangles,
+                                              m.triangle_count, 0.2, cancel_after_two,
+                                              &simplify_calls, &raw_simplified),
+               BALLOON_CANCELLED, "cancelled");
+  CHECK(simplify_calls == 2, "%d progress calls before the cancel", simplify_calls);
 
   BalloonObjectSeeds object = {5, seed, 1};
   BalloonObjects *raw_objects = nullptr;

@@ -195,6 +195,19 @@ _SIGNATURES = {
         _Status,
         [POINTER(c_double), c_size_t, POINTER(c_uint32), c_size_t, c_double, POINTER(_TriMesh)],
     ),
+    "balloon_simplify_with_progress": (
+        _Status,
+        [
+            POINTER(c_double),
+            c_size_t,
+            POINTER(c_uint32),
+            c_size_t,
+            c_double,
+            PROGRESS_CALLBACK,
+            c_void_p,
+            POINTER(_TriMesh),
+        ],
+    ),
     "balloon_trimesh_vertex_map": (
         _Status,
         [_TriMesh, POINTER(POINTER(c_uint32)), POINTER(c_size_t)],

@@ -9,6 +9,7 @@ import numbers
 import numpy as np
 
 from . import _library as L
+from ._progress import Progress
 from ._volume import unsigned, volume_view
 from .errors import InvalidArgumentError, InvalidMeshError
 
@@ -126,7 +127,7 @@ def marching_cubes(
     return Mesh(points, triangles)
 
 
-def simplify(points, triangles, max_error_mm: float):
+def simplify(points, triangles, max_error_mm: float, progress=None):
     """A closed, 2-manifold, consistently oriented mesh without self-intersections reduced to as
     few triangles as the library's edge collapses reach while every point of the result lies
     within ``max_error_mm`` of the input surface and every point of the input surface within
@@ -135,8 +136,11 @@ def simplify(points, triangles, max_error_mm: float):
 
     Returns ``(mesh, vertex_map)``: a :class:`~balloonseg.mesh.Mesh` and, for each input point,
     the index of the output vertex it was merged into (``NO_VERTEX`` for a point no triangle
-    uses), to carry per-point data over. Raises InvalidArgumentError for a bound that is not a
-    positive finite number, InvalidMeshError (with the reason) for a mesh it cannot simplify."""
+    uses), to carry per-point data over. ``progress(fraction, phase)`` (phase
+    ``"simplification"``) is called now and then with an estimate of the fraction done;
+    returning True (or raising) cancels with CancelledError (or the raised exception). Raises
+    InvalidArgumentError for a bound that is not a positive finite number, InvalidMeshError
+    (with the reason) for a mesh it cannot simplify."""
     from .mesh import Mesh
 
     if isinstance(max_error_mm, bool) or not isinstance(max_error_mm, numbers.Real):
@@ -144,9 +148,13 @@ def simplify(points, triangles, max_error_mm: float):
             f"max_error_mm must be a distance in mm (a number), got {max_error_mm!r}"
         )
     p, t = mesh_arrays(points, triangles)
+    callback = Progress(progress)
     lib = L.library()
     handle = ctypes.c_void_p()
-    L.check(lib.balloon_simplify(*_pointers(p, t), float(max_error_mm), ctypes.byref(handle)))
+    status = lib.balloon_simplify_with_progress(
+        *_pointers(p, t), float(max_error_mm), callback.c, None, ctypes.byref(handle)
+    )
+    callback.check(status)
     try:
         view = L.BalloonMesh()
         L.check(lib.balloon_trimesh_view(handle, ctypes.byref(view)))

@@ -40,16 +40,17 @@ class Mesh:
             self._stats = {**kernels.check(self.points, self.triangles), **self._run_stats}
         return self._stats
 
-    def simplify(self, max_error_mm: float) -> Mesh:
+    def simplify(self, max_error_mm: float, progress=None) -> Mesh:
         """A new mesh within ``max_error_mm`` of this one both ways (the two-sided Hausdorff
         distance), with as few triangles as the library reaches, still closed, 2-manifold,
         oriented as this one and free of self-intersections, with the same genus and components
         (see :func:`balloonseg.kernels.simplify`, which also gives the vertex map). Its
         ``vertex_state`` is None: ``segment(..., simplify_mm=...)`` carries the states over.
+        ``progress(fraction, phase)`` reports and may cancel as in :func:`balloonseg.kernels.simplify`.
         Raises InvalidArgumentError for a bound that is not a positive finite number and
         InvalidMeshError for a mesh it cannot simplify (open, non-manifold, inconsistently
         oriented, self-intersecting)."""
-        return kernels.simplify(self.points, self.triangles, max_error_mm)[0]
+        return kernels.simplify(self.points, self.triangles, max_error_mm, progress)[0]
 
     def to_vtk(self):
         """A ``vtkPolyData`` (double points, triangle polys, a "vertex_state" point array when

@@ -12,6 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import _library as L
+from ._progress import Progress, check_progress
 from ._volume import triple, unsigned, volume_view
 from .errors import InvalidArgumentError, PanicError, UnknownParameterError
 from .kernels import mesh_from_view
@@ -194,11 +195,6 @@ def _stats_dict(s: L.BalloonStats) -> dict:
     }
 
 
-def _check_progress(callback) -> None:
-    if callback is not None and not callable(callback):
-        raise InvalidArgumentError(f"progress must be callable or None, got {callback!r}")
-
-
 def _as_c_triple(point) -> ctypes.Array:
     return (ctypes.c_double * 3)(*triple("seed", point))
 
@@ -279,7 +275,7 @@ class Segmenter:
 
     @progress.setter
     def progress(self, callback) -> None:
-        _check_progress(callback)
+        check_progress(callback)
         trampoline = L.PROGRESS_CALLBACK(self._on_progress) if callback else L.PROGRESS_CALLBACK()
         self._call(self._lib.balloon_set_progress_callback, trampoline, None)
         self._progress = callback
@@ -409,30 +405,6 @@ def segment(
     return mesh
 
 
-class _Progress:
-    """The C progress callback of one call: a Python exception is kept (it must not unwind
-    through the library), cancels the call, and is raised once the call has returned."""
-
-    def __init__(self, callback):
-        _check_progress(callback)
-        self.callback = callback
-        self.error = None
-        self.c = L.PROGRESS_CALLBACK(self._call) if callback else L.PROGRESS_CALLBACK()
-
-    def _call(self, fraction: float, phase: bytes, _user_data) -> int:
-        try:
-            return 1 if self.callback(fraction, phase.decode()) else 0
-        except BaseException as e:  # noqa: BLE001 - raised by check
-            self.error = e
-            return 1
-
-    def check(self, status: int) -> None:
-        error, self.error = self.error, None
-        if error is not None:
-            raise error
-        L.check(status)
-
-
 def segment_objects(
     volume,
     seed,
@@ -455,7 +427,7 @@ def segment_objects(
     objects = _objects(seed)
     stops = _seeds(np.zeros((0, 3)) if stop is None else stop, "stop", empty=True)
     region = _roi(roi)
-    callback = _Progress(progress)
+    callback = Progress(progress)
     params_struct = _params_struct(params)
     lib = L.library()
     c_volume, array = volume_view(volume, spacing, origin, direction, axes)

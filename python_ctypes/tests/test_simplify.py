@@ -124,6 +124,32 @@ def test_the_vertex_map_sends_every_input_point_to_its_output_vertex():
     assert np.all(reduced.points[used] == mesh.points, axis=1).any()
 
 
+def test_progress_rises_in_the_simplification_phase_and_may_cancel():
+    mesh = balloonseg.marching_cubes(torus(40, 12.0, 4.0), 0.0, **GEOMETRY)
+    seen = []
+    reduced = mesh.simplify(0.1, progress=lambda fraction, phase: seen.append((fraction, phase)))
+    assert np.array_equal(reduced.points, mesh.simplify(0.1).points)
+    assert np.array_equal(reduced.triangles, mesh.simplify(0.1).triangles)
+    fractions = [f for f, _ in seen]
+    assert len(seen) >= 2 and {phase for _, phase in seen} == {"simplification"}
+    assert fractions == sorted(fractions) and 0 < fractions[0] and fractions[-1] <= 1
+    calls = []
+    with pytest.raises(balloonseg.CancelledError, match="cancelled"):
+        balloonseg.simplify(mesh.points, mesh.triangles, 0.1, lambda f, p: calls.append(f) or True)
+    assert len(calls) == 1
+
+    class Stop(Exception):
+        pass
+
+    def raising(_fraction, _phase):
+        raise Stop
+
+    with pytest.raises(Stop):
+        mesh.simplify(0.1, progress=raising)
+    with pytest.raises(balloonseg.InvalidArgumentError, match="progress must be callable"):
+        mesh.simplify(0.1, progress=3)
+
+
 def test_segment_simplify_mm_bounds_the_balloon_and_keeps_its_states():
     volume = np.where(ball(n=24, radius=7.0) > 0, 200.0, 0.0)
     seed = (-3.0 + 0.9 * 11.5, 2.0 + 1.1 * 11.5, 5.0 + 11.5)

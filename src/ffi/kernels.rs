@@ -3,20 +3,23 @@
 //! copies its pairs into the caller's array with the size-query protocol
 //! (`BALLOON_BUFFER_TOO_SMALL` with the total).
 
+use std::ffi::c_void;
 use std::mem::size_of;
 
 use super::boundary::{require, run, run_infallible, Failure};
 use super::mesh::{mesh_from_c, view, BalloonMesh};
 use super::params::check_struct_size;
+use super::segmenter::{progress_from_c, BalloonProgressCallback};
 use super::status::BalloonStatus;
 use super::volume::{volume_from_c, BalloonVolume};
 use crate::balloon::params::check_threads;
+use crate::balloon::Phase;
 use crate::error::Error;
 use crate::marching_cubes::marching_cubes;
 use crate::mesh::TriMesh;
 use crate::mesh_checks;
 use crate::self_intersection::self_intersections;
-use crate::simplification::{simplify, Simplified};
+use crate::simplification::{simplify_with_progress, Simplified};
 
 /// In the vertex map of a simplified mesh (balloon_trimesh_vertex_map): an input point that no
 /// triangle uses.
@@ -116,7 +119,8 @@ pub unsafe extern "C" fn balloon_trimesh_view(
 /// `max_error_mm` of the result (proved for every point, not sampled). The result stays closed,
 /// 2-manifold, oriented as the input (outward stays outward), free of self-intersections, with
 /// the same genus and number of components; no triangle it makes has an angle under 10 degrees.
-/// Deterministic; runs on the calling thread.
+/// Deterministic; runs on the calling thread. balloon_simplify_with_progress reports its
+/// progress and may be cancelled.
 ///
 /// Errors: BALLOON_NULL_POINTER for a NULL `out`, or NULL arrays with non-zero counts;
 /// BALLOON_INVALID_ARGUMENT when `max_error_mm` is not a positive finite distance;
@@ -138,11 +142,53 @@ pub unsafe extern "C" fn balloon_simplify(
     max_error_mm: f64,
     out: *mut *mut BalloonTriMesh,
 ) -> BalloonStatus {
+    // SAFETY: by the caller's promise, which is balloon_simplify_with_progress's without a
+    // callback.
+    unsafe {
+        balloon_simplify_with_progress(
+            points,
+            point_count,
+            triangles,
+            triangle_count,
+            max_error_mm,
+            None,
+            std::ptr::null_mut(),
+            out,
+        )
+    }
+}
+
+/// balloon_simplify, calling `progress` (NULL = none) with `user_data` on this thread now and
+/// then with the fraction done (0 to 1, never decreasing; an estimate, as the number of
+/// collapses is not known in advance) and the phase "simplification". Returning non-zero
+/// cancels: BALLOON_CANCELLED, and `*out` is not written. The result does not depend on the
+/// callback.
+///
+/// # Safety
+/// As balloon_simplify; `progress` and `user_data` are used during this call only.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)]
+pub unsafe extern "C" fn balloon_simplify_with_progress(
+    points: *const f64,
+    point_count: usize,
+    triangles: *const u32,
+    triangle_count: usize,
+    max_error_mm: f64,
+    progress: BalloonProgressCallback,
+    user_data: *mut c_void,
+    out: *mut *mut BalloonTriMesh,
+) -> BalloonStatus {
     run(|| {
         require(out, "out")?;
         // SAFETY: by the caller's promise.
         let mesh = unsafe { mesh_from_c(points, point_count, triangles, triangle_count)? };
-        let Simplified { mesh, vertex_map } = simplify(&mesh, max_error_mm)?;
+        // SAFETY: `progress` and `user_data` are used during this call only.
+        let mut progress = unsafe { progress_from_c(progress, user_data) };
+        let Simplified { mesh, vertex_map } = simplify_with_progress(&mesh, max_error_mm, |f| {
+            progress
+                .as_mut()
+                .map_or(true, |p| p(f, Phase::Simplification))
+        })?;
         let owned = Box::new(BalloonTriMesh { mesh, vertex_map });
         // SAFETY: non-NULL and writable.
         unsafe { out.write(Box::into_raw(owned)) };

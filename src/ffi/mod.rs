@@ -46,8 +46,8 @@ mod volume;
 pub use boundary::balloon_last_error_message;
 pub use kernels::{
     balloon_marching_cubes, balloon_mesh_check, balloon_self_intersections, balloon_simplify,
-    balloon_trimesh_free, balloon_trimesh_vertex_map, balloon_trimesh_view, BalloonMeshReport,
-    BalloonTriMesh, BALLOON_NO_VERTEX,
+    balloon_simplify_with_progress, balloon_trimesh_free, balloon_trimesh_vertex_map,
+    balloon_trimesh_view, BalloonMeshReport, BalloonTriMesh, BALLOON_NO_VERTEX,
 };
 pub use mesh::BalloonMesh;
 pub use objects::{
