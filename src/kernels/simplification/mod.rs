@@ -26,6 +26,11 @@
 //! 4. distance: both sides of the Hausdorff bound, proved for every point and not only for
 //!    samples (`error_bound`).
 //!
+//! The queue holds each edge once with its cost, which depends only on its endpoints, so a
+//! collapse queues again only the edges of the vertex it keeps (whose position and quadric
+//! changed) and the edges around it that were tried and failed: a change next to them may let
+//! them pass now. An entry whose endpoint has since been kept by a collapse is stale.
+//!
 //! Collapses run one after the other, so the result is the same for any number of threads.
 
 mod box_tree;
@@ -35,7 +40,7 @@ mod sheet_cover;
 mod triangle_grid;
 
 use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+use std::collections::{BinaryHeap, HashSet};
 
 use glam::DVec3;
 
@@ -43,6 +48,7 @@ use self::error_bound::{tested_limit, Attached, Attachments, Displaced, InputSur
 use self::quadric::Quadric;
 use self::triangle_grid::{Bounds, TriangleGrid};
 use crate::allocation;
+use crate::balloon::fast_hash::FastHash;
 use crate::error::{Error, Result};
 use crate::mesh::TriMesh;
 use crate::mesh_checks::{check, component_volumes};
@@ -147,7 +153,7 @@ fn check_simplifiable(mesh: &TriMesh) -> Result<()> {
 }
 
 /// A queued collapse: its quadric cost, the edge, and the endpoints' stamps when it was queued
-/// (a changed stamp means the neighbourhood changed and the entry is stale).
+/// (a changed stamp means the endpoint moved and the entry is stale).
 type QueueEntry = Reverse<(u64, u32, u32, u32, u32)>;
 
 struct Simplifier {
@@ -170,6 +176,9 @@ struct Simplifier {
     limit: f64,
     cos_min_angle: f64,
     queue: BinaryHeap<QueueEntry>,
+    /// Edges (lower vertex first) whose collapse was tried and refused, to try again when a
+    /// collapse changes the triangles around them.
+    refused: HashSet<(u32, u32), FastHash>,
     scratch: Vec<u32>,
 }
 
@@ -231,6 +240,7 @@ impl Simplifier {
                 3 * points.len(),
                 "the queue of collapses",
             )?),
+            refused: HashSet::default(),
             scratch: Vec::new(),
             points,
             triangles,
@@ -256,8 +266,8 @@ impl Simplifier {
         while let Some(Reverse((_, a, b, stamp_a, stamp_b))) = self.queue.pop() {
             popped += 1;
             if popped % REPORT_EVERY == 0 {
-                // Every collapse queues its neighbourhood again, so the queue's length only
-                // bounds what is left; the estimate rises to 1 as it drains.
+                // Collapses queue edges again, so the queue's length only bounds what is
+                // left; the estimate rises to 1 as it drains.
                 reported = reported.max(popped as f64 / (popped + self.queue.len()) as f64);
                 if !progress(reported) {
                     return Err(Error::cancelled(
@@ -272,7 +282,14 @@ impl Simplifier {
             {
                 continue;
             }
-            self.try_collapse(a, b)?;
+            if !self.try_collapse(a, b)? {
+                allocation::reserved::<(u32, u32)>(
+                    self.refused.try_reserve(1),
+                    self.refused.len() + 1,
+                    "the refused collapses",
+                )?;
+                self.refused.insert((a, b));
+            }
         }
         Ok(())
     }
@@ -294,7 +311,7 @@ impl Simplifier {
     }
 
     fn enqueue(&mut self, a: u32, b: u32) -> Result<()> {
-        // Stale entries stay queued until popped, so the queue outgrows the mesh.
+        // Stale entries stay queued until popped, so the queue may outgrow the mesh.
         let room = self.queue.len() + 1;
         allocation::reserved::<QueueEntry>(
             self.queue.try_reserve(1),
@@ -355,10 +372,11 @@ impl Simplifier {
         })
     }
 
-    /// Collapses `a`–`b` at the first placement that keeps every guarantee, if one does.
-    fn try_collapse(&mut self, a: u32, b: u32) -> Result<()> {
+    /// Collapses `a`–`b` at the first placement that keeps every guarantee, if one does;
+    /// whether it did.
+    fn try_collapse(&mut self, a: u32, b: u32) -> Result<bool> {
         let Some(star) = self.star(a, b) else {
-            return Ok(());
+            return Ok(false);
         };
         let q = self.quadrics[a as usize] + self.quadrics[b as usize];
         let mut tried = q.placements(self.points[a as usize], self.points[b as usize]);
@@ -388,10 +406,11 @@ impl Simplifier {
             .displaced(&from, |t| star.moved.binary_search(&t).ok());
         for (_, position) in tried {
             if let Some(admitted) = self.admissible(&star, &displaced, position) {
-                return self.commit(&star, position, admitted);
+                self.commit(&star, position, admitted)?;
+                return Ok(true);
             }
         }
-        Ok(())
+        Ok(false)
     }
 
     /// A moved triangle's vertices and corners after the collapse.
@@ -548,22 +567,24 @@ impl Simplifier {
             self.grid.insert(t, &bounds);
             self.bounds[t as usize] = bounds;
         }
-        let mut touched = self.neighbours(keep);
-        touched.push(keep);
-        for &v in &touched {
-            self.stamps[v as usize] = self.stamps[v as usize].wrapping_add(1);
-        }
-        let mut edges: Vec<(u32, u32)> = touched
+        self.stamps[keep as usize] = self.stamps[keep as usize].wrapping_add(1);
+        let around_keep = self.neighbours(keep);
+        let mut edges: Vec<(u32, u32)> = around_keep
             .iter()
-            .flat_map(|&v| {
-                self.neighbours(v)
-                    .into_iter()
-                    .map(move |w| (v.min(w), v.max(w)))
-            })
+            .map(|&w| (keep.min(w), keep.max(w)))
             .collect();
+        for &v in &around_keep {
+            for w in self.neighbours(v) {
+                let edge = (v.min(w), v.max(w));
+                if self.refused.contains(&edge) {
+                    edges.push(edge);
+                }
+            }
+        }
         edges.sort_unstable();
         edges.dedup();
         for (v, w) in edges {
+            self.refused.remove(&(v, w));
             self.enqueue(v, w)?;
         }
         Ok(())
