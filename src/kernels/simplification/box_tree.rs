@@ -1,9 +1,9 @@
 //! A bounding-box tree over a fixed set of boxes (the input surface's triangles): which boxes
 //! overlap a query box, in time that grows with the answer and the tree's depth, not with the
-//! query's size. The simplifier's `TriangleGrid` serves the output, whose triangles move; a grid
-//! answers a box many cells wide by scanning everything, and late in a far simplification
-//! every output triangle is that wide against the input's fine cells (on a 158k-triangle
-//! isosurface reduced a hundredfold, 41 of 58 s went to those scans).
+//! query's size. The simplifier's `TriangleGrid` serves the output, whose triangles move. A
+//! single uniform grid answered a box many cells wide by scanning everything, and late in a far
+//! simplification every output triangle is that wide against the input's fine cells (on a
+//! 158k-triangle isosurface reduced a hundredfold, 41 of 58 s went to those scans).
 //!
 //! Built top down: each node's boxes split at the median centre along the node's longest
 //! axis, down to leaves of at most `LEAF` boxes. Deterministic (ties broken by index).

@@ -1,10 +1,16 @@
-//! A uniform grid of triangles' bounding boxes that triangles can enter and leave: the local
-//! queries of the simplifier (which triangles lie near a collapse) while the mesh changes.
+//! A hierarchical grid of triangles' bounding boxes that triangles can enter and leave: the
+//! local queries of the simplifier (which triangles lie near a collapse) while the mesh
+//! changes and its triangles grow from the input's size to many times it.
 //!
-//! Only occupied cells are stored, in a hash map. A box that would enter more than
-//! `MAX_CELLS_PER_BOX` cells (a large tilted triangle late in a simplification, or a sliver
-//! from another tool's mesh) is kept in a short list of oversized boxes that every query scans
-//! instead, so that no triangle's size makes the grid's memory or a query's time explode.
+//! Level `l` has cubic cells `2^l` times the finest; a box enters the finest level whose cells
+//! are at least as wide as its longest side, so it meets at most eight cells wherever it is. A
+//! query visits, on each level that holds boxes, the cells its box meets, or the level's
+//! occupied cells when those are fewer. Only occupied cells are stored, in a hash map per
+//! level. A single uniform grid either keeps a late, large triangle in hundreds of cells or
+//! in a list that every query scans, and a query wider than its cells visits all of them: on a
+//! 1.3M-triangle isosurface the grid's queries grew with the square of the mesh. Boxes beyond
+//! the coarsest level (non-finite or astronomically large coordinates) sit in a list that
+//! every query returns.
 
 use std::collections::HashMap;
 
@@ -14,12 +20,18 @@ use crate::allocation;
 use crate::balloon::fast_hash::FastHash;
 use crate::error::Result;
 
-/// The most cells one box enters; larger boxes go to the oversized list.
-const MAX_CELLS_PER_BOX: i64 = 512;
+/// Levels above the finest: cells up to 2^40 times the finest, far beyond any mesh.
+const LEVELS: usize = 41;
+
+/// The most cells one box enters; a box wider than the coarsest level's cells goes to the
+/// oversized list.
+const MAX_CELLS_PER_BOX: i64 = 8;
+
+type Cells = HashMap<[i32; 3], Vec<u32>, FastHash>;
 
 pub(super) struct TriangleGrid {
-    inverse_cell: f64,
-    cells: HashMap<[i32; 3], Vec<u32>, FastHash>,
+    finest: f64,
+    levels: Vec<Cells>,
     oversized: Vec<u32>,
 }
 
@@ -52,27 +64,47 @@ impl Bounds {
 }
 
 impl TriangleGrid {
-    /// A grid of cubic cells `cell` mm wide (positive and finite).
+    /// A grid whose finest cells are `cell` mm wide (positive and finite).
     pub(super) fn new(cell: f64) -> TriangleGrid {
         TriangleGrid {
-            inverse_cell: 1.0 / cell,
-            cells: HashMap::default(),
+            finest: cell,
+            levels: (0..LEVELS).map(|_| Cells::default()).collect(),
             oversized: Vec::new(),
         }
     }
 
-    /// The cells a box covers, or `None` when there are more than `MAX_CELLS_PER_BOX`.
-    fn cell_range(&self, b: &Bounds) -> Option<([i32; 3], [i32; 3])> {
-        let to_cell = |x: f64| (x * self.inverse_cell).floor().clamp(-1e9, 1e9) as i32;
+    /// The level a box enters: the finest whose cells are as wide as the box's longest side.
+    fn level_of(&self, b: &Bounds) -> usize {
+        let side = (b.hi - b.lo).max_element() / self.finest;
+        if side <= 1.0 {
+            0
+        } else if side.is_finite() {
+            (side.log2().ceil() as usize).min(LEVELS - 1)
+        } else {
+            LEVELS - 1
+        }
+    }
+
+    /// The cells of `level` a box meets, and how many there are (`None` beyond i64).
+    fn cell_range(&self, level: usize, b: &Bounds) -> ([i32; 3], [i32; 3], Option<i64>) {
+        let inverse_cell = 1.0 / (self.finest * (1u64 << level) as f64);
+        let to_cell = |x: f64| (x * inverse_cell).floor().clamp(-1e9, 1e9) as i32;
         let lo = b.lo.to_array().map(to_cell);
         let hi = b.hi.to_array().map(to_cell);
         // Up to 2·10⁹ cells a side: the product can exceed i64, hence checked.
         let count = (0..3).try_fold(1i64, |n, k| {
             n.checked_mul(i64::from(hi[k]) - i64::from(lo[k]) + 1)
         });
+        (lo, hi, count)
+    }
+
+    /// Where a box is kept: a level and its cells, or `None` for the oversized list.
+    fn place(&self, b: &Bounds) -> Option<(usize, [i32; 3], [i32; 3])> {
+        let level = self.level_of(b);
+        let (lo, hi, count) = self.cell_range(level, b);
         count
             .is_some_and(|n| n <= MAX_CELLS_PER_BOX)
-            .then_some((lo, hi))
+            .then_some((level, lo, hi))
     }
 
     fn for_cells(lo: [i32; 3], hi: [i32; 3], mut f: impl FnMut([i32; 3])) {
@@ -86,25 +118,27 @@ impl TriangleGrid {
     }
 
     pub(super) fn insert(&mut self, id: u32, b: &Bounds) {
-        match self.cell_range(b) {
-            Some((lo, hi)) => Self::for_cells(lo, hi, |key| {
-                self.cells.entry(key).or_default().push(id);
+        match self.place(b) {
+            Some((level, lo, hi)) => Self::for_cells(lo, hi, |key| {
+                self.levels[level].entry(key).or_default().push(id);
             }),
             None => self.oversized.push(id),
         }
     }
 
     /// `insert`, with the room for new cells allocated fallibly: for building a grid, whose
-    /// cells grow with the mesh. (Once built, a collapse takes out as many cells as it adds.)
+    /// cells grow with the mesh. (Once built, a collapse takes out about as many cells as it
+    /// adds.)
     pub(super) fn try_insert(&mut self, id: u32, b: &Bounds) -> Result<()> {
-        let cells = self.cell_range(b).map_or(0, |(lo, hi)| {
-            (0..3).map(|k| (hi[k] - lo[k] + 1) as usize).product()
-        });
-        allocation::reserved::<([i32; 3], Vec<u32>)>(
-            self.cells.try_reserve(cells),
-            self.cells.len() + cells,
-            "a grid's cells",
-        )?;
+        if let Some((level, _, _)) = self.place(b) {
+            let cells = &mut self.levels[level];
+            let room = MAX_CELLS_PER_BOX as usize;
+            allocation::reserved::<([i32; 3], Vec<u32>)>(
+                cells.try_reserve(room),
+                cells.len() + room,
+                "a grid's cells",
+            )?;
+        }
         self.insert(id, b);
         Ok(())
     }
@@ -116,15 +150,18 @@ impl TriangleGrid {
                 list.swap_remove(k);
             }
         };
-        match self.cell_range(b) {
-            Some((lo, hi)) => Self::for_cells(lo, hi, |key| {
-                if let Some(list) = self.cells.get_mut(&key) {
-                    take(list);
-                    if list.is_empty() {
-                        self.cells.remove(&key);
+        match self.place(b) {
+            Some((level, lo, hi)) => {
+                let cells = &mut self.levels[level];
+                Self::for_cells(lo, hi, |key| {
+                    if let Some(list) = cells.get_mut(&key) {
+                        take(list);
+                        if list.is_empty() {
+                            cells.remove(&key);
+                        }
                     }
-                }
-            }),
+                })
+            }
             None => take(&mut self.oversized),
         }
     }
@@ -134,16 +171,20 @@ impl TriangleGrid {
     pub(super) fn query(&self, b: &Bounds, out: &mut Vec<u32>) {
         out.clear();
         out.extend_from_slice(&self.oversized);
-        match self.cell_range(b) {
-            Some((lo, hi)) => Self::for_cells(lo, hi, |key| {
-                if let Some(list) = self.cells.get(&key) {
-                    out.extend_from_slice(list);
+        for (level, cells) in self.levels.iter().enumerate() {
+            if cells.is_empty() {
+                continue;
+            }
+            match self.cell_range(level, b) {
+                (lo, hi, Some(count)) if count <= cells.len() as i64 => {
+                    Self::for_cells(lo, hi, |key| {
+                        if let Some(list) = cells.get(&key) {
+                            out.extend_from_slice(list);
+                        }
+                    })
                 }
-            }),
-            None => self
-                .cells
-                .values()
-                .for_each(|list| out.extend_from_slice(list)),
+                _ => cells.values().for_each(|list| out.extend_from_slice(list)),
+            }
         }
         out.sort_unstable();
         out.dedup();
@@ -172,7 +213,10 @@ mod tests {
         grid.remove(7, &unit_box_at(0.5));
         grid.query(&unit_box_at(1.2), &mut found);
         assert!(found.is_empty());
-        assert!(grid.cells.values().all(|list| !list.contains(&7)));
+        assert!(grid
+            .levels
+            .iter()
+            .all(|cells| cells.values().all(|list| !list.contains(&7))));
     }
 
     #[test]
@@ -189,19 +233,71 @@ mod tests {
     }
 
     #[test]
-    fn a_box_over_many_cells_is_kept_apart_and_found_by_every_query() {
+    fn a_box_many_finest_cells_wide_enters_a_few_coarse_ones_and_only_queries_near_it_find_it() {
         let mut grid = TriangleGrid::new(0.01);
         let huge = Bounds {
             lo: DVec3::ZERO,
             hi: DVec3::splat(100.0),
         };
         grid.insert(3, &huge);
-        assert!(grid.cells.is_empty());
+        let entered: usize = grid
+            .levels
+            .iter()
+            .flat_map(|c| c.values())
+            .map(Vec::len)
+            .sum();
+        assert!((1..=8).contains(&entered) && grid.oversized.is_empty());
         let mut found = Vec::new();
-        grid.query(&unit_box_at(-50.0), &mut found);
+        grid.query(&unit_box_at(50.0), &mut found);
         assert_eq!(found, vec![3]);
-        grid.remove(3, &huge);
-        grid.query(&unit_box_at(-50.0), &mut found);
+        grid.query(&unit_box_at(-500.0), &mut found);
         assert!(found.is_empty());
+        grid.remove(3, &huge);
+        grid.query(&unit_box_at(50.0), &mut found);
+        assert!(found.is_empty());
+        assert!(grid.levels.iter().all(HashMap::is_empty));
+    }
+
+    #[test]
+    fn queries_return_every_overlapping_box_of_any_size_once_in_order() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut random_box = || {
+            let centre = DVec3::new(next(), next(), next()) * 200.0 - 100.0;
+            // Sides from a thousandth of the finest cell to a thousand times it.
+            let half = DVec3::new(next(), next(), next()) * 10f64.powf(6.0 * next() - 3.0);
+            Bounds {
+                lo: centre - half,
+                hi: centre + half,
+            }
+        };
+        let mut grid = TriangleGrid::new(1.0);
+        let boxes: Vec<Bounds> = (0..600).map(|_| random_box()).collect();
+        for (id, b) in boxes.iter().enumerate() {
+            grid.try_insert(id as u32, b).unwrap();
+        }
+        for (id, b) in boxes.iter().enumerate().filter(|(id, _)| id % 3 == 0) {
+            grid.remove(id as u32, b);
+        }
+        let mut found = Vec::new();
+        for _ in 0..300 {
+            let query = random_box();
+            grid.query(&query, &mut found);
+            assert!(found.windows(2).all(|w| w[0] < w[1]));
+            for (id, b) in boxes.iter().enumerate() {
+                let overlapping = b.overlaps(&query);
+                let present = found.binary_search(&(id as u32)).is_ok();
+                if id % 3 == 0 {
+                    assert!(!present, "{id} was removed");
+                } else if overlapping {
+                    assert!(present, "{id} overlaps the query but was not found");
+                }
+            }
+        }
     }
 }
