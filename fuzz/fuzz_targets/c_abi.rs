@@ -1,8 +1,10 @@
 //! The C ABI as a C host drives it: volumes with random sizes, strides (negative and padded
 //! too), scalar types, spacing, origin and direction (zero, negative, NaN, singular), NaN
 //! voxels, parameters set by name to random values, and a random sequence of calls on one
-//! handle. Every call returns a status; nothing panics, aborts or hangs, and a mesh handed out
-//! is closed, 2-manifold and outward.
+//! handle; then marching cubes of the volume and balloon_simplify_with_progress of its mesh,
+//! with a random bound and a callback that may cancel. Every call returns a status; nothing
+//! panics, aborts or hangs, and a mesh handed out is closed, 2-manifold and oriented (outward
+//! for the balloon's).
 
 #![no_main]
 
@@ -109,8 +111,15 @@ fn ok(status: BalloonStatus) -> bool {
 }
 
 fn assert_valid(mesh: &BalloonMesh) {
+    if let Some(report) = report(mesh) {
+        assert!(report.is_valid_closed_surface(), "{report:?}");
+    }
+}
+
+/// The mesh checks of a view; `None` for an empty mesh.
+fn report(mesh: &BalloonMesh) -> Option<balloonseg::mesh_checks::MeshReport> {
     if mesh.triangle_count == 0 {
-        return;
+        return None;
     }
     // SAFETY: the library's view, valid until the next call on its handle.
     let (points, triangles) = unsafe {
@@ -125,8 +134,7 @@ fn assert_valid(mesh: &BalloonMesh) {
         .collect();
     let triangles = triangles.chunks(3).map(|t| [t[0], t[1], t[2]]).collect();
     let mesh = balloonseg::TriMesh::new(points, triangles).expect("a mesh of valid indices");
-    let report = balloonseg::mesh_checks::check(&mesh);
-    assert!(report.is_valid_closed_surface(), "{report:?}");
+    Some(balloonseg::mesh_checks::check(&mesh))
 }
 
 fuzz_target!(|data: &[u8]| {
@@ -214,8 +222,67 @@ fuzz_target!(|data: &[u8]| {
     if ok(unsafe {
         balloon_marching_cubes(&voxels.volume, number(&mut bytes, 100.0), 1, &mut mesh)
     }) {
+        simplify(mesh, &mut bytes);
         // SAFETY: the kernel's mesh, freed once.
         unsafe { balloon_trimesh_free(mesh) };
     }
     drop(voxels);
 });
+
+/// Counts the progress calls and cancels at the `cancel_at`-th (never when 0).
+unsafe extern "C" fn count_calls(
+    fraction: f64,
+    _phase: *const std::ffi::c_char,
+    user_data: *mut c_void,
+) -> std::ffi::c_int {
+    assert!((0.0..=1.0).contains(&fraction), "fraction {fraction}");
+    // SAFETY: the [calls, cancel_at] pair the caller passed, live during the call.
+    let [calls, cancel_at] = unsafe { &mut *user_data.cast::<[u32; 2]>() };
+    *calls += 1;
+    std::ffi::c_int::from(*calls == *cancel_at)
+}
+
+/// balloon_simplify_with_progress on a marching-cubes mesh (open where the surface leaves the
+/// grid, so often refused), with a random bound and a callback that may cancel: a status, and
+/// a valid mesh on success.
+fn simplify(mesh: *mut BalloonTriMesh, bytes: &mut Bytes) {
+    let mut view = BalloonMesh {
+        points: ptr::null(),
+        point_count: 0,
+        triangles: ptr::null(),
+        triangle_count: 0,
+        vertex_state: ptr::null(),
+    };
+    // SAFETY: a live kernel mesh and a writable view.
+    assert!(ok(unsafe { balloon_trimesh_view(mesh, &mut view) }));
+    let mut counter = [0u32, u32::from(bytes.byte() % 4)];
+    let mut simplified = ptr::null_mut();
+    // SAFETY: the view's arrays live until `mesh` is freed; the counter outlives the call.
+    let status = unsafe {
+        balloon_simplify_with_progress(
+            view.points,
+            view.point_count,
+            view.triangles,
+            view.triangle_count,
+            number(bytes, 0.2),
+            Some(count_calls),
+            counter.as_mut_ptr().cast(),
+            &mut simplified,
+        )
+    };
+    if ok(status) {
+        let mut out = view;
+        // SAFETY: the simplified mesh and a writable view.
+        assert!(ok(unsafe { balloon_trimesh_view(simplified, &mut out) }));
+        // Marching cubes turns its normals towards higher values, often inward; kept so.
+        let report = report(&out).expect("a simplified mesh has triangles");
+        assert!(
+            report.closed() && report.manifold() && report.consistently_oriented(),
+            "{report:?}"
+        );
+        // SAFETY: freed once.
+        unsafe { balloon_trimesh_free(simplified) };
+    } else {
+        assert!(simplified.is_null(), "*out written on {status:?}");
+    }
+}
