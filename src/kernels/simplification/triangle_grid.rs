@@ -194,6 +194,7 @@ impl TriangleGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     fn unit_box_at(x: f64) -> Bounds {
         Bounds {
@@ -258,44 +259,48 @@ mod tests {
         assert!(grid.levels.iter().all(HashMap::is_empty));
     }
 
-    #[test]
-    fn queries_return_every_overlapping_box_of_any_size_once_in_order() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
-        let mut random_box = || {
-            let centre = DVec3::new(next(), next(), next()) * 200.0 - 100.0;
-            // Sides from a thousandth of the finest cell to a thousand times it.
-            let half = DVec3::new(next(), next(), next()) * 10f64.powf(6.0 * next() - 3.0);
-            Bounds {
-                lo: centre - half,
-                hi: centre + half,
-            }
-        };
-        let mut grid = TriangleGrid::new(1.0);
-        let boxes: Vec<Bounds> = (0..600).map(|_| random_box()).collect();
-        for (id, b) in boxes.iter().enumerate() {
-            grid.try_insert(id as u32, b).unwrap();
-        }
-        for (id, b) in boxes.iter().enumerate().filter(|(id, _)| id % 3 == 0) {
-            grid.remove(id as u32, b);
-        }
-        let mut found = Vec::new();
-        for _ in 0..300 {
-            let query = random_box();
-            grid.query(&query, &mut found);
-            assert!(found.windows(2).all(|w| w[0] < w[1]));
+    /// A box somewhere in a 200 mm cube, its sides from a thousandth of a 1 mm cell to a
+    /// thousand of them.
+    fn any_box() -> impl Strategy<Value = Bounds> {
+        (
+            prop::array::uniform3(-100.0..100.0f64),
+            prop::array::uniform3(0.0..1.0f64),
+            -3.0..3.0f64,
+        )
+            .prop_map(|(centre, half, scale)| {
+                let (centre, half) = (DVec3::from(centre), DVec3::from(half) * 10f64.powf(scale));
+                Bounds {
+                    lo: centre - half,
+                    hi: centre + half,
+                }
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn queries_return_every_overlapping_box_of_any_size_once_in_order(
+            boxes in prop::collection::vec(any_box(), 1..400),
+            queries in prop::collection::vec(any_box(), 1..40),
+        ) {
+            let mut grid = TriangleGrid::new(1.0);
             for (id, b) in boxes.iter().enumerate() {
-                let overlapping = b.overlaps(&query);
-                let present = found.binary_search(&(id as u32)).is_ok();
-                if id % 3 == 0 {
-                    assert!(!present, "{id} was removed");
-                } else if overlapping {
-                    assert!(present, "{id} overlaps the query but was not found");
+                grid.try_insert(id as u32, b).unwrap();
+            }
+            for (id, b) in boxes.iter().enumerate().filter(|(id, _)| id % 3 == 0) {
+                grid.remove(id as u32, b);
+            }
+            let mut found = Vec::new();
+            for query in &queries {
+                grid.query(query, &mut found);
+                prop_assert!(found.windows(2).all(|w| w[0] < w[1]));
+                for (id, b) in boxes.iter().enumerate() {
+                    let present = found.binary_search(&(id as u32)).is_ok();
+                    if id % 3 == 0 {
+                        prop_assert!(!present, "{} was removed", id);
+                    } else if b.overlaps(query) {
+                        prop_assert!(present, "{} overlaps the query but was not found", id);
+                    }
                 }
             }
         }
