@@ -7,8 +7,8 @@
 //! query visits, on each level that holds boxes, the cells its box meets, or the level's
 //! occupied cells when those are fewer. Only occupied cells are stored, in a hash map per
 //! level. A single uniform grid either keeps a late, large triangle in hundreds of cells or
-//! in a list that every query scans, and a query wider than its cells visits all of them: on a
-//! 1.3M-triangle isosurface the grid's queries grew with the square of the mesh. Boxes beyond
+//! in a list that every query copies, and a query wider than its cells visits all of them: on
+//! a 1.3M-triangle isosurface, copying and sorting that list took half of the run. Boxes beyond
 //! the coarsest level (non-finite or astronomically large coordinates) sit in a list that
 //! every query returns.
 
@@ -20,7 +20,7 @@ use crate::allocation;
 use crate::balloon::fast_hash::FastHash;
 use crate::error::Result;
 
-/// Levels above the finest: cells up to 2^40 times the finest, far beyond any mesh.
+/// How many levels: cells from the finest up to 2^40 times it, far beyond any mesh.
 const LEVELS: usize = 41;
 
 /// The most cells one box enters; a box wider than the coarsest level's cells goes to the
