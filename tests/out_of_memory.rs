@@ -8,7 +8,7 @@
 #![cfg(target_os = "linux")]
 
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::ffi::c_void;
+use std::ffi::{c_char, c_int, c_void};
 use std::ptr;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
@@ -346,6 +346,16 @@ fn refuse_each<T>(
     unreachable!()
 }
 
+/// A progress callback that counts its calls in `*user_data` (a `usize`) and never cancels.
+unsafe extern "C" fn count_calls(
+    _fraction: f64,
+    _phase: *const c_char,
+    user_data: *mut c_void,
+) -> c_int {
+    unsafe { *user_data.cast::<usize>() += 1 };
+    0
+}
+
 #[test]
 fn every_large_allocation_of_the_kernels_can_fail_without_harm() {
     let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
@@ -373,6 +383,24 @@ fn every_large_allocation_of_the_kernels_can_fail_without_harm() {
         |out| unsafe { balloon_simplify(points.as_ptr(), np, triangles.as_ptr(), nt, 0.2, out) },
         |m| unsafe { balloon_trimesh_free(m) },
     );
+    // With a callback: the refusal must pass through a call that reports progress too.
+    let mut calls = 0usize;
+    let simplified_with_progress = refuse_each(
+        |out| unsafe {
+            balloon_simplify_with_progress(
+                points.as_ptr(),
+                np,
+                triangles.as_ptr(),
+                nt,
+                0.2,
+                Some(count_calls),
+                (&mut calls as *mut usize).cast(),
+                out,
+            )
+        },
+        |m| unsafe { balloon_trimesh_free(m) },
+    );
+    assert!(calls > 0, "the simplification never reported progress");
     let pairs = refuse_each(
         |_: &mut *mut u8| {
             let mut count = 0;
@@ -414,8 +442,10 @@ fn every_large_allocation_of_the_kernels_can_fail_without_harm() {
     );
     eprintln!(
         "large allocations refused one at a time: {isosurface} in balloon_marching_cubes, \
-         {simplified} in balloon_simplify, {pairs} in balloon_self_intersections, {objects} in \
+         {simplified} in balloon_simplify, {simplified_with_progress} in \
+         balloon_simplify_with_progress, {pairs} in balloon_self_intersections, {objects} in \
          balloon_segment_objects"
     );
     assert!(isosurface > 0 && simplified > 0 && pairs > 0 && objects > 0);
+    assert_eq!(simplified_with_progress, simplified);
 }
