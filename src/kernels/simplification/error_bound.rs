@@ -176,30 +176,40 @@ impl Attachments {
         from: &[u32],
         slot_of: impl Fn(u32) -> Option<usize>,
     ) -> Displaced {
-        let mut gathered: Vec<(Attached, Option<usize>)> = from
-            .iter()
-            .flat_map(|&t| self.pieces[t as usize].iter().map(move |&p| (p, t)))
-            .map(|(p, t)| (p, slot_of(t)))
+        let count = from.iter().map(|&t| self.pieces[t as usize].len()).sum();
+        let mut gathered: Vec<(Attached, Option<usize>)> = Vec::with_capacity(count);
+        for &t in from {
+            let slot = slot_of(t);
+            gathered.extend(self.pieces[t as usize].iter().map(|&p| (p, slot)));
+        }
+        // Grouped by source, in the order gathered within a group, so that the result does not
+        // depend on the sort: the keys (source, place) are distinct, and sorting them moves
+        // eight bytes a piece instead of the piece.
+        let mut order: Vec<(u32, u32)> = (0..count as u32)
+            .map(|k| (gathered[k as usize].0.source, k))
             .collect();
-        // Grouped by source; the order within a group is the order gathered (sort_by_key is
-        // stable), so that the result does not depend on the sort.
-        gathered.sort_by_key(|(p, _)| p.source);
-        let mut work = Vec::with_capacity(gathered.len());
-        for group in gathered.chunk_by(|x, y| x.0.source == y.0.source) {
-            let source = group[0].0.source;
+        order.sort_unstable();
+        // The pieces of the two deleted triangles (no slot) first: they lie where the surface
+        // changes most, so a collapse that fails usually fails there, before the others are
+        // tried.
+        let (mut work, mut kept) = (Vec::with_capacity(count), Vec::with_capacity(count));
+        let mut put = |item: (Attached, Option<usize>)| match item.1 {
+            None => work.push(item),
+            Some(_) => kept.push(item),
+        };
+        for group in order.chunk_by(|x, y| x.0 == y.0) {
+            let source = group[0].0;
             if group.len() > 1 && group.len() == self.fragments[source as usize] as usize {
                 let whole = Attached {
                     source,
                     corners: self.input[source as usize],
                 };
-                work.push((whole, group[0].1));
+                put((whole, gathered[group[0].1 as usize].1));
             } else {
-                work.extend_from_slice(group);
+                group.iter().for_each(|&(_, k)| put(gathered[k as usize]));
             }
         }
-        // The pieces of the two deleted triangles first: they lie where the surface changes
-        // most, so a collapse that fails usually fails there, before the others are tried.
-        work.sort_by_key(|(_, slot)| slot.is_some());
+        work.append(&mut kept);
         Displaced(work)
     }
 
