@@ -50,6 +50,20 @@ const MAX_DEPTH: u32 = 12;
 /// collapse's cost whatever the geometry.
 const MAX_PARTS: usize = 4096;
 
+/// Why a piece found no place: its corner `corner` lies farther than the limit from every
+/// target, the nearest point of them being `nearest`.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Miss {
+    pub corner: DVec3,
+    pub nearest: DVec3,
+}
+
+impl Miss {
+    pub(super) fn distance(&self) -> f64 {
+        self.corner.distance(self.nearest)
+    }
+}
+
 /// A part of a triangle, by its corners in world millimetres.
 pub(super) type Piece = [DVec3; 3];
 
@@ -125,7 +139,8 @@ impl InputSurface {
             .collect();
         !near.is_empty()
             && (covered_by_sheet(triangle, &near, limit)
-                || divide_onto(triangle, None, &near, limit, Fallback::Lipschitz, |_, _| {}))
+                || divide_onto(triangle, None, &near, limit, Fallback::Lipschitz, |_, _| {})
+                    .is_ok())
     }
 }
 
@@ -236,9 +251,13 @@ pub(super) struct Displaced(Vec<(Attached, Option<usize>)>);
 impl Displaced {
     /// The pieces placed on `targets` (the triangles that replace theirs): each piece, or each
     /// part it is cut into (`divide_onto`), goes to a target whose distance to all its corners
-    /// is at most `limit`. Returns the pieces per target, or `None` when some piece fits
-    /// nowhere.
-    pub(super) fn place(&self, targets: &[Target], limit: f64) -> Option<Vec<Vec<Attached>>> {
+    /// is at most `limit`. Returns the pieces per target, or, when some piece fits nowhere,
+    /// the miss that showed it (see `divide_onto`).
+    pub(super) fn place(
+        &self,
+        targets: &[Target],
+        limit: f64,
+    ) -> Result<Vec<Vec<Attached>>, Option<Miss>> {
         place_pieces(&self.0, targets, limit)
     }
 }
@@ -554,10 +573,10 @@ fn place_pieces(
     pieces: &[(Attached, Option<usize>)],
     targets: &[Target],
     limit: f64,
-) -> Option<Vec<Vec<Attached>>> {
+) -> Result<Vec<Vec<Attached>>, Option<Miss>> {
     let mut placed: Vec<Vec<Attached>> = vec![Vec::new(); targets.len()];
     for &(piece, preferred) in pieces {
-        let fitted = divide_onto(
+        divide_onto(
             piece.corners,
             preferred,
             targets,
@@ -569,19 +588,18 @@ fn place_pieces(
                     corners,
                 })
             },
-        );
-        if !fitted {
-            return None;
-        }
+        )?;
     }
-    Some(placed)
+    Ok(placed)
 }
 
 /// Divides `piece` into parts each within `limit` of one target (at all its corners, hence
-/// everywhere), calling `fit(part, target)` for each; `false` when some part fits nowhere
-/// after `MAX_DEPTH` cuts or among `MAX_PARTS` parts. The `preferred` target is tried first. A part over two adjacent
-/// targets is cut where it passes from one to the other (`dividing_plane`), any other misfit
-/// into quarters.
+/// everywhere), calling `fit(part, target)` for each. The `preferred` target is tried first.
+/// A part over two adjacent targets is cut where it passes from one to the other
+/// (`dividing_plane`), any other misfit into quarters. An error when some part fits nowhere:
+/// the `Miss` of a corner farther than `limit` from every target within reach of the part, or
+/// `None` when no target is within reach or the proof gave up after `MAX_DEPTH` cuts or among
+/// `MAX_PARTS` parts.
 fn divide_onto(
     piece: Piece,
     preferred: Option<usize>,
@@ -589,7 +607,7 @@ fn divide_onto(
     limit: f64,
     fallback: Fallback,
     mut fit: impl FnMut(Piece, usize),
-) -> bool {
+) -> Result<(), Option<Miss>> {
     let limit2 = limit * limit;
     let mut fans = Fans::default();
     let mut stack = vec![(piece, preferred, 0u32)];
@@ -597,7 +615,7 @@ fn divide_onto(
     while let Some((piece, preferred, depth)) = stack.pop() {
         examined += 1;
         if examined > MAX_PARTS {
-            return false;
+            return Err(None);
         }
         // Only targets whose boxes come within the limit of the part's box can be within
         // the limit of its corners.
@@ -627,9 +645,14 @@ fn divide_onto(
         }
         // A corner farther than the limit from every target stays a corner of any part of
         // the piece: cutting cannot help.
-        let farthest2 = nearest.iter().fold(0.0f64, |m, n| m.max(n.0));
+        let far = (1..3).fold(0, |m, k| if nearest[k].0 > nearest[m].0 { k } else { m });
+        let farthest2 = nearest[far].0;
         if farthest2 > limit2 {
-            return false;
+            let corner = piece[far];
+            return Err(farthest2.is_finite().then(|| Miss {
+                corner,
+                nearest: targets[nearest[far].1].triangle.closest_point(corner),
+            }));
         }
         if fallback == Fallback::Lipschitz {
             if farthest2.sqrt() + corner_reach(piece) <= limit {
@@ -652,7 +675,7 @@ fn divide_onto(
             }
         }
         if depth == fallback.max_depth() {
-            return false;
+            return Err(None);
         }
         let first = nearest[0].1;
         let across = (fallback == Fallback::None)
@@ -667,7 +690,7 @@ fn divide_onto(
             None => stack.extend(quarters(piece).map(child)),
         }
     }
-    true
+    Ok(())
 }
 
 /// The largest distance from a lattice of points on `part` (40 steps a side) to the nearest
@@ -815,7 +838,7 @@ mod tests {
     }
 
     #[test]
-    fn pieces_go_to_the_triangle_they_lie_near_and_are_split_between_two() {
+    fn pieces_go_to_the_triangle_they_lie_near_and_are_split_between_two_or_name_their_miss() {
         let square = square_mesh(0.0);
         let targets: Vec<Target> = (0..2)
             .map(|t| Target::new(square.corners(t), square.triangles()[t]))
@@ -830,11 +853,23 @@ mod tests {
         let piece = |corners| (Attached { source: 0, corners }, None);
         let placed = place_pieces(&[piece(across)], &targets, 0.06).unwrap();
         assert!(!placed[0].is_empty() && !placed[1].is_empty());
+        // A corner beyond the bound: the miss names the farthest corner and the nearest point
+        // of the targets to it, towards which a refined position moves the surface.
         let far = [
-            DVec3::new(0.5, 0.5, 0.2),
-            DVec3::new(0.6, 0.5, 0.2),
-            DVec3::new(0.5, 0.6, 0.2),
+            DVec3::new(0.5, 0.5, 0.05),
+            DVec3::new(0.6, 0.5, 0.14),
+            DVec3::new(0.5, 0.6, 0.08),
         ];
-        assert!(place_pieces(&[piece(far)], &targets, 0.1).is_none());
+        let miss = place_pieces(&[piece(far)], &targets, 0.1)
+            .unwrap_err()
+            .expect("a corner misses");
+        assert_eq!(miss.corner, far[1]);
+        assert!(miss.nearest.distance(DVec3::new(0.6, 0.5, 0.0)) < 1e-12);
+        assert!((miss.distance() - 0.14).abs() < 1e-12);
+        // Far beyond: no target within reach, so no nearest point to name.
+        let beyond = far.map(|p| p + DVec3::Z);
+        assert!(place_pieces(&[piece(beyond)], &targets, 0.1)
+            .unwrap_err()
+            .is_none());
     }
 }

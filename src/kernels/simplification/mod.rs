@@ -7,10 +7,11 @@
 //!
 //! Collapses are taken greedily in the order of Garland–Heckbert's quadric error (`quadric`),
 //! each at the first of a few positions (the quadric's minimiser, the best point of the edge,
-//! its endpoints, the first of these moved ½, ¼ and ¾ of the bound off the surface either way)
-//! that passes every check (in the order of the list below, except that the input's side of
-//! the distance bound, which fails most often, comes before the search for
-//! self-intersections):
+//! its endpoints, the first of these moved ½, ¼ and ¾ of the bound off the surface either way,
+//! then up to [`REFINEMENTS`] positions each moved from the closest miss so far towards the
+//! input point that missed the bound) that passes every check (in the order of the list below,
+//! except that the input's side of the distance bound, which fails most often, comes before
+//! the search for self-intersections):
 //! 1. topology: the link condition of Dey et al. (the endpoints' common neighbours are the two
 //!    opposite vertices), and no opposite vertex left with two triangles, so a collapse never
 //!    changes the genus, splits a component or collapses a tetrahedron;
@@ -44,7 +45,9 @@ use std::collections::{BinaryHeap, HashSet};
 
 use glam::DVec3;
 
-use self::error_bound::{tested_limit, Attached, Attachments, Displaced, InputSurface, Target};
+use self::error_bound::{
+    tested_limit, Attached, Attachments, Displaced, InputSurface, Miss, Target,
+};
 use self::quadric::Quadric;
 use self::triangle_grid::{Bounds, TriangleGrid};
 use crate::allocation;
@@ -59,6 +62,15 @@ use crate::self_intersection::{mesh_triangles_intersect, self_intersections};
 /// tetrahedral mesher (TetGen's and CGAL's surface-mesh inputs break on slivers) while costing
 /// little reduction on smooth anatomy.
 pub const MIN_ANGLE_DEGREES: f64 = 10.0;
+
+/// How many more positions a collapse tries when all of the quadric's miss the bound, each
+/// moved from the closest miss so far towards the input point that missed. The quadric's
+/// positions minimise a sum of squares, the bound is a maximum: half the collapses refused on
+/// the aorta at 0.1 mm missed by under 5% of it. Six steps keep 2.6% fewer triangles there
+/// (12,652 -> 12,326 of 41,482) and 3.2% at 0.25 mm (4,500 -> 4,356), for 5-13% more time
+/// there and on the 158k and 322k isosurfaces (which lose only 0.3-0.5%); ten steps gain
+/// another 0.3% on the aorta.
+const REFINEMENTS: usize = 6;
 
 /// Marks an input point that no triangle uses in [`Simplified::vertex_map`].
 pub const NO_VERTEX: u32 = u32::MAX;
@@ -404,13 +416,50 @@ impl Simplifier {
         let displaced = self
             .pieces
             .displaced(&from, |t| star.moved.binary_search(&t).ok());
+        let mut closest: Option<(DVec3, Miss)> = None;
         for (_, position) in tried {
-            if let Some(admitted) = self.admissible(&star, &displaced, position) {
-                self.commit(&star, position, admitted)?;
-                return Ok(true);
+            match self.collapse_at(&star, &displaced, position)? {
+                Ok(()) => return Ok(true),
+                Err(Some(miss))
+                    if closest.map_or(true, |(_, c)| miss.distance() < c.distance()) =>
+                {
+                    closest = Some((position, miss));
+                }
+                Err(_) => {}
+            }
+        }
+        for _ in 0..REFINEMENTS {
+            let Some((position, miss)) = closest else {
+                break;
+            };
+            // Twice the excess over nine tenths of the bound: the kept vertex carries about
+            // half the motion of its triangles' points where the miss lies.
+            let excess = miss.distance() - 0.9 * self.limit;
+            let step = (2.0 * excess).min(self.limit) / miss.distance();
+            let position = position + (miss.corner - miss.nearest) * step;
+            match self.collapse_at(&star, &displaced, position)? {
+                Ok(()) => return Ok(true),
+                Err(miss) => closest = miss.map(|miss| (position, miss)),
             }
         }
         Ok(false)
+    }
+
+    /// Collapses `star` to `position` if that keeps every guarantee; otherwise the input point
+    /// that missed the bound there, when that was the reason.
+    fn collapse_at(
+        &mut self,
+        star: &Star,
+        displaced: &Displaced,
+        position: DVec3,
+    ) -> Result<std::result::Result<(), Option<Miss>>> {
+        Ok(match self.admissible(star, displaced, position) {
+            Ok(admitted) => {
+                self.commit(star, position, admitted)?;
+                Ok(())
+            }
+            Err(miss) => Err(miss),
+        })
     }
 
     /// A moved triangle's vertices and corners after the collapse.
@@ -427,13 +476,14 @@ impl Simplifier {
         (corners, vertices)
     }
 
-    /// Checks 2–4 for the collapse of `star` to `position`.
+    /// Checks 2–4 for the collapse of `star` to `position`: what the collapse would answer
+    /// for, or why not (`Some` when an input point would be farther than the bound).
     fn admissible(
         &mut self,
         star: &Star,
         displaced: &Displaced,
         position: DVec3,
-    ) -> Option<Admitted> {
+    ) -> std::result::Result<Admitted, Option<Miss>> {
         let after: Vec<([DVec3; 3], [u32; 3])> = star
             .moved
             .iter()
@@ -444,14 +494,14 @@ impl Simplifier {
             let before = (q - p).cross(r - p);
             let [p, q, r] = *corners;
             if before.dot((q - p).cross(r - p)) <= 0.0 || !self.well_shaped(*corners) {
-                return None;
+                return Err(None);
             }
         }
         let component = self.input.component(star.moved[0]);
         let old_volume = self.volumes[component as usize];
         let volume = old_volume + self.volume_change(star, &after);
         if volume * old_volume <= 0.0 {
-            return None;
+            return Err(None);
         }
         // The distance bound before the self-intersection search: most tried collapses fail
         // the bound, and hardly any of those that pass it intersect.
@@ -461,7 +511,7 @@ impl Simplifier {
             .collect();
         let placed = displaced.place(&targets, self.limit)?;
         if self.intersects_after(star, &after) {
-            return None;
+            return Err(None);
         }
         let mut scratch = std::mem::take(&mut self.scratch);
         let covered = after.iter().all(|&(corners, _)| {
@@ -469,7 +519,10 @@ impl Simplifier {
                 .covers(corners, component, self.limit, &mut scratch)
         });
         self.scratch = scratch;
-        covered.then_some(Admitted {
+        if !covered {
+            return Err(None);
+        }
+        Ok(Admitted {
             pieces: placed,
             volume,
         })
