@@ -65,9 +65,9 @@ fn isosurfaces_of_analytic_fields_are_simplified_within_the_bound() {
 }
 
 /// The balloon's result on a real scan, simplified at 0.1 and 0.25 mm: the shares kept are
-/// pinned a little above what was measured (the aorta: 0.297 and 0.105 of 41,482 triangles;
-/// the carotid: 0.530 and 0.211 of 1,726; 2026-12-07, with the refined positions), to catch
-/// regressions.
+/// pinned a little above what was measured (the aorta: 0.291 and 0.101 of 41,482 triangles;
+/// the carotid: 0.519 and 0.206 of 1,726; 2026-12-07, with refined positions and flips), to
+/// catch regressions.
 fn real_scan(path: &str, seed: [usize; 3], shares: [f64; 2]) {
     let Some(dir) = data_dir() else {
         return;
@@ -93,12 +93,12 @@ fn real_scan(path: &str, seed: [usize; 3], shares: [f64; 2]) {
 
 #[test]
 fn the_aortas_balloon_is_simplified_within_the_bound() {
-    real_scan("vmtk-aorta/aorta.mha", [74, 150, 15], [0.305, 0.108]);
+    real_scan("vmtk-aorta/aorta.mha", [74, 150, 15], [0.295, 0.103]);
 }
 
 #[test]
 fn the_carotids_balloon_is_simplified_within_the_bound() {
-    real_scan("vtk-carotid/carotid.mha", [17, 23, 8], [0.545, 0.22]);
+    real_scan("vtk-carotid/carotid.mha", [17, 23, 8], [0.53, 0.215]);
 }
 
 fn scratch(name: &str) -> PathBuf {
