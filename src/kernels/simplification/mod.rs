@@ -411,11 +411,7 @@ impl Simplifier {
         self.volumes[component as usize] = admitted.volume;
         self.pieces.commit(&[], &replaced, admitted.pieces);
         for (&x, &(_, vertices)) in replaced.iter().zip(&after) {
-            self.grid.remove(x, &self.bounds[x as usize]);
-            self.triangles[x as usize] = vertices;
-            let bounds = Bounds::of(self.corners(x));
-            self.grid.insert(x, &bounds);
-            self.bounds[x as usize] = bounds;
+            self.set_triangle(x, vertices);
         }
         self.around[a as usize].retain(|&x| x != u);
         self.around[b as usize].retain(|&x| x != t);
@@ -778,15 +774,8 @@ impl Simplifier {
         self.pieces
             .commit(&star.deleted, &star.moved, admitted.pieces);
         for &t in &star.moved {
-            self.grid.remove(t, &self.bounds[t as usize]);
-            for v in &mut self.triangles[t as usize] {
-                if *v == remove {
-                    *v = keep;
-                }
-            }
-            let bounds = Bounds::of(self.corners(t));
-            self.grid.insert(t, &bounds);
-            self.bounds[t as usize] = bounds;
+            let vertices = self.triangles[t as usize].map(|v| if v == remove { keep } else { v });
+            self.set_triangle(t, vertices);
         }
         self.stamps[keep as usize] = self.stamps[keep as usize].wrapping_add(1);
         let around_keep = self.neighbours(keep);
@@ -795,6 +784,15 @@ impl Simplifier {
             .map(|&w| (keep.min(w), keep.max(w)))
             .collect();
         self.queue_again(edges, &around_keep)
+    }
+
+    /// Gives live triangle `t` new `vertices`, and the grid its new box.
+    fn set_triangle(&mut self, t: u32, vertices: [u32; 3]) {
+        self.grid.remove(t, &self.bounds[t as usize]);
+        self.triangles[t as usize] = vertices;
+        let bounds = Bounds::of(self.corners(t));
+        self.grid.insert(t, &bounds);
+        self.bounds[t as usize] = bounds;
     }
 
     /// Queues `edges` (lower vertex first), and the refused edges at the `changed` vertices,
