@@ -65,9 +65,9 @@ fn isosurfaces_of_analytic_fields_are_simplified_within_the_bound() {
 }
 
 /// The balloon's result on a real scan, simplified at 0.1 and 0.25 mm: the shares kept are
-/// pinned a little above what was measured (the aorta: 0.291 and 0.101 of 41,482 triangles;
-/// the carotid: 0.519 and 0.206 of 1,726; 2026-12-07, with refined positions and flips), to
-/// catch regressions.
+/// pinned a little above what was measured (the aorta: 0.287 and 0.0996 of 41,482 triangles,
+/// the second at the 10% the simplification promises there; the carotid: 0.512 and 0.210 of
+/// 1,726; 2026-12-07, with refined positions, flips and vertex moves), to catch regressions.
 fn real_scan(path: &str, seed: [usize; 3], shares: [f64; 2]) {
     let Some(dir) = data_dir() else {
         return;
@@ -93,7 +93,7 @@ fn real_scan(path: &str, seed: [usize; 3], shares: [f64; 2]) {
 
 #[test]
 fn the_aortas_balloon_is_simplified_within_the_bound() {
-    real_scan("vmtk-aorta/aorta.mha", [74, 150, 15], [0.295, 0.103]);
+    real_scan("vmtk-aorta/aorta.mha", [74, 150, 15], [0.29, 0.1]);
 }
 
 #[test]

@@ -50,6 +50,19 @@ impl Quadric {
         (x.dot(self.a * x) + 2.0 * self.b.dot(x) + self.c).max(0.0)
     }
 
+    /// The minimiser of the quadric plus a weak pull towards `p`, which settles the directions
+    /// the planes leave free (along a flat or cylindrical surface) at `p`'s.
+    pub(super) fn minimiser_near(&self, p: DVec3) -> DVec3 {
+        let trace = self.a.x_axis.x + self.a.y_axis.y + self.a.z_axis.z;
+        let pull = 1e-3 * trace;
+        let x = (self.a + DMat3::IDENTITY * pull).inverse() * (pull * p - self.b);
+        if x.is_finite() {
+            x
+        } else {
+            p
+        }
+    }
+
     /// The positions worth trying for the collapse of the edge `p`–`q`, best first: the
     /// minimiser of the quadric when it is well determined and not far from the edge, then the
     /// minimiser along the edge (which always exists), then the two endpoints.
