@@ -77,11 +77,11 @@ const REFINEMENTS: usize = 10;
 /// The most rounds of edge flips and vertex moves after the queue first empties, each followed
 /// by the collapses it lets through. They die out by themselves within a few rounds (most of
 /// the changes in the first, and none after the seventh on the aorta at 0.1 mm); the bound
-/// only caps the work. Flips keep fewer triangles on every mesh tried: the aorta 12,288 -> 12,086 at
-/// 0.1 mm and 4,322 -> 4,184 at 0.25 mm, the carotid's balloon 910 -> 896 and 364 -> 356.
-/// Moves on top: the aorta 11,902 and 4,130, the carotid 884 and 362 (6 more), the 20k and 80k
-/// isosurfaces 4,750 / 548 and 7,460 / 536 (from 4,740 / 560 and 7,488 / 536), for 10-60% more
-/// time.
+/// only caps the work. Flips keep fewer triangles on every mesh tried: the aorta
+/// 12,288 -> 12,086 at 0.1 mm and 4,322 -> 4,184 at 0.25 mm, the carotid's balloon 910 -> 896
+/// and 364 -> 356. Moves on top: the aorta 11,902 and 4,130, the carotid 884 and 362 (6 more),
+/// the 20k and 80k isosurfaces 4,750 / 548 and 7,460 / 536 (from 4,740 / 560 and
+/// 7,488 / 536), for 10-60% more time.
 const CHANGE_ROUNDS: usize = 8;
 
 /// The fractions of the bound a vertex move (`try_relocate`) must bring its triangles' input
