@@ -450,10 +450,10 @@ impl Simplifier {
         Ok(moved)
     }
 
-    /// Moves vertex `v` to the first of a few positions (its quadric's minimiser, and a fifth
-    /// of the bound off the surface either way) where the input pieces its triangles answer
-    /// for fit within a lower `RELOCATION_LEVELS` step than where it is, if that keeps every
-    /// guarantee; whether it did.
+    /// Moves vertex `v` to the one of a few positions (its quadric's minimiser, and a fifth of
+    /// the bound off the surface either way) where the input pieces its triangles answer for
+    /// fit the lowest `RELOCATION_LEVELS` step, the first of them on a tie, when that is lower
+    /// than where it is and the move keeps every guarantee; whether it moved.
     fn try_relocate(&mut self, v: u32) -> Result<bool> {
         if self.settled[v as usize] {
             return Ok(false);
