@@ -154,7 +154,10 @@ typedef struct BalloonMeshReport {
   uint8_t oriented;
   // Closed, oriented and every component encloses a positive volume (0/1).
   uint8_t outward;
-  // Pairs of intersecting triangles (a degenerate triangle counts as a pair with itself).
+  // Pairs of intersecting triangles (a degenerate triangle counts as a pair with itself),
+  // counted up to 16 per triangle plus 1,024: a count past that limit reads as the limit
+  // plus one (the search stops there; triangles piled into one place pair up
+  // quadratically).
   size_t self_intersecting_pairs;
   int64_t euler_characteristic;
   // -1 when the mesh is not a closed oriented manifold (the genus is then undefined).
@@ -370,7 +373,10 @@ enum BalloonStatus balloon_mesh_check(const double *points,
 // degenerate triangle), sorted, copied into `pairs_out` (room for `pairs_capacity` pairs).
 // `*pair_count_out` receives the number of pairs both on success and with
 // BALLOON_BUFFER_TOO_SMALL (then nothing is copied): call first with pairs_out NULL and
-// capacity 0 to size the buffer.
+// capacity 0 to size the buffer. A mesh with more than 16 pairs per triangle plus 1,024 is
+// BALLOON_INVALID_MESH, and `*pair_count_out` is left alone: the search stops there, since
+// triangles piled into one place pair up quadratically (`balloon_mesh_check` counts up to
+// that limit).
 //
 // # Safety
 // The mesh arrays hold the counts given; `pairs_out` is NULL or has room for

@@ -18,7 +18,7 @@ use crate::error::Error;
 use crate::marching_cubes::marching_cubes;
 use crate::mesh::TriMesh;
 use crate::mesh_checks;
-use crate::self_intersection::self_intersections;
+use crate::self_intersection::{count_self_intersections, self_intersections};
 use crate::simplification::{simplify_with_progress, Simplified};
 
 /// In the vertex map of a simplified mesh (balloon_trimesh_vertex_map): an input point that no
@@ -49,7 +49,10 @@ pub struct BalloonMeshReport {
     pub oriented: u8,
     /// Closed, oriented and every component encloses a positive volume (0/1).
     pub outward: u8,
-    /// Pairs of intersecting triangles (a degenerate triangle counts as a pair with itself).
+    /// Pairs of intersecting triangles (a degenerate triangle counts as a pair with itself),
+    /// counted up to 16 per triangle plus 1,024: a count past that limit reads as the limit
+    /// plus one (the search stops there; triangles piled into one place pair up
+    /// quadratically).
     pub self_intersecting_pairs: usize,
     pub euler_characteristic: i64,
     /// -1 when the mesh is not a closed oriented manifold (the genus is then undefined).
@@ -268,7 +271,7 @@ pub unsafe extern "C" fn balloon_mesh_check(
             manifold: r.manifold().into(),
             oriented: r.consistently_oriented().into(),
             outward: r.outward().into(),
-            self_intersecting_pairs: self_intersections(&mesh)?.len(),
+            self_intersecting_pairs: count_self_intersections(&mesh)?.saturated(),
             euler_characteristic: r.euler_characteristic,
             genus: r.genus().unwrap_or(-1),
             components: r.components,
@@ -285,7 +288,10 @@ pub unsafe extern "C" fn balloon_mesh_check(
 /// degenerate triangle), sorted, copied into `pairs_out` (room for `pairs_capacity` pairs).
 /// `*pair_count_out` receives the number of pairs both on success and with
 /// BALLOON_BUFFER_TOO_SMALL (then nothing is copied): call first with pairs_out NULL and
-/// capacity 0 to size the buffer.
+/// capacity 0 to size the buffer. A mesh with more than 16 pairs per triangle plus 1,024 is
+/// BALLOON_INVALID_MESH, and `*pair_count_out` is left alone: the search stops there, since
+/// triangles piled into one place pair up quadratically (`balloon_mesh_check` counts up to
+/// that limit).
 ///
 /// # Safety
 /// The mesh arrays hold the counts given; `pairs_out` is NULL or has room for

@@ -29,16 +29,62 @@ use crate::predicates::{coplanar_orientation, orient3d_bound_for_differences_up_
 use crate::spatial_hash::{overlapping_pairs, spatial_order, Aabb};
 use crate::triangle_intersection::{prepared_triangles_intersect, segment_meets_prepared};
 
+/// The most pairs a search over a mesh of `triangles` triangles holds: 16 per triangle (a mesh
+/// laid over a copy of itself has about 13: each triangle meets its copy and those of its
+/// neighbours) and 1,024 more for small meshes. The search stops past it, since triangles piled
+/// into one place pair up quadratically, and so would its time and memory.
+pub fn pair_limit(triangles: usize) -> usize {
+    triangles.saturating_mul(16).saturating_add(1024)
+}
+
+/// How many pairs `self_intersections` finds, counted up to `pair_limit`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PairCount {
+    Exactly(usize),
+    /// More than this many: the search stopped there.
+    MoreThan(usize),
+}
+
+impl PairCount {
+    /// The count as one number, a count past the limit as the limit plus one.
+    pub fn saturated(self) -> usize {
+        match self {
+            PairCount::Exactly(n) => n,
+            PairCount::MoreThan(limit) => limit.saturating_add(1),
+        }
+    }
+}
+
 /// The pairs (a, b) of intersecting triangles, sorted, as CGAL's
 /// `Polygon_mesh_processing::self_intersections` defines them: a < b for two non-degenerate
 /// triangles, and (t, t) for each degenerate triangle t. Identical for any number of threads.
+/// A mesh with more than `pair_limit` pairs is an error (`count_self_intersections` counts up
+/// to it).
 pub fn self_intersections(mesh: &TriMesh) -> Result<Vec<(u32, u32)>> {
-    find(mesh, |_| true)
+    let limit = pair_limit(mesh.triangles().len());
+    find(mesh, |_| true, limit)?.ok_or_else(|| {
+        Error::invalid_mesh(format!(
+            "the mesh intersects itself in more than {limit} pairs of triangles (16 per \
+             triangle): it is no surface but triangles piled into one place, and the search \
+             stops there to bound its time and memory"
+        ))
+    })
+}
+
+/// The number of pairs `self_intersections` finds, up to `pair_limit`: what a check of a mesh
+/// reports, for any mesh.
+pub fn count_self_intersections(mesh: &TriMesh) -> Result<PairCount> {
+    let limit = pair_limit(mesh.triangles().len());
+    Ok(match find(mesh, |_| true, limit)? {
+        Some(pairs) => PairCount::Exactly(pairs.len()),
+        None => PairCount::MoreThan(limit),
+    })
 }
 
 /// `self_intersections` restricted to the pairs involving at least one triangle marked in
 /// `active` (one flag per triangle). Every active triangle is still tested against all others;
-/// the cost is that of the full search.
+/// the cost is that of the full search. Without a limit: it is for the balloon's own surfaces,
+/// whose size the vertex limit bounds and which are repaired from all their pairs.
 pub fn self_intersections_among(mesh: &TriMesh, active: &[bool]) -> Result<Vec<(u32, u32)>> {
     if active.len() != mesh.triangles().len() {
         return Err(Error::invalid_argument(format!(
@@ -47,10 +93,16 @@ pub fn self_intersections_among(mesh: &TriMesh, active: &[bool]) -> Result<Vec<(
             mesh.triangles().len()
         )));
     }
-    find(mesh, |t| active[t as usize])
+    let all = find(mesh, |t| active[t as usize], usize::MAX)?;
+    Ok(all.expect("no search without a limit stops early"))
 }
 
-fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Result<Vec<(u32, u32)>> {
+/// The pairs involving an active triangle, or `None` when there are more than `limit`.
+fn find(
+    mesh: &TriMesh,
+    active: impl Fn(u32) -> bool + Sync,
+    limit: usize,
+) -> Result<Option<Vec<(u32, u32)>>> {
     // Unreachable in practice: 2^32 triangles take 48 GiB of indices alone.
     assert!(
         u32::try_from(mesh.triangles().len()).is_ok(),
@@ -91,10 +143,19 @@ fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Result<Vec<(u32,
         "the triangles' boxes",
     )?;
     drop(order);
-    let found = overlapping_pairs(&boxes, |x, y| {
+    let alone: Vec<(u32, u32)> = (0..count)
+        .filter(|&t| degenerate[t as usize] && active(t))
+        .map(|t| (t, t))
+        .collect();
+    let Some(limit) = limit.checked_sub(alone.len()) else {
+        return Ok(None);
+    };
+    let Some(found) = overlapping_pairs(&boxes, limit, |x, y| {
         let (a, b) = (&faces[x as usize], &faces[y as usize]);
         (active(a.id) || active(b.id)) && faces_intersect(a, b)
-    });
+    }) else {
+        return Ok(None);
+    };
     let mut pairs: Vec<(u32, u32)> = found
         .par_iter()
         .map(|&(x, y)| {
@@ -102,13 +163,9 @@ fn find(mesh: &TriMesh, active: impl Fn(u32) -> bool + Sync) -> Result<Vec<(u32,
             (a.min(b), a.max(b))
         })
         .collect();
-    pairs.extend(
-        (0..count)
-            .filter(|&t| degenerate[t as usize] && active(t))
-            .map(|t| (t, t)),
-    );
+    pairs.extend(alone);
     pairs.par_sort_unstable();
-    Ok(pairs)
+    Ok(Some(pairs))
 }
 
 /// Whether two triangles of one mesh, given by their corners and vertex ids, intersect as
@@ -489,6 +546,75 @@ mod tests {
         assert_eq!(some, expected);
         let e = self_intersections_among(&m, &[true]).unwrap_err();
         assert_eq!(e.kind(), crate::ErrorKind::InvalidArgument);
+    }
+
+    /// `n` triangles on random corners in a unit cube: nearly every two of them intersect.
+    fn pile(n: usize, seed: u64) -> TriMesh {
+        let mut state = seed;
+        let mut uniform = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let points: Vec<[f64; 3]> = (0..n / 2)
+            .map(|_| [uniform(), uniform(), uniform()])
+            .collect();
+        let mut corner = || (uniform() * points.len() as f64) as u32;
+        let triangles: Vec<[u32; 3]> = (0..n).map(|_| [corner(), corner(), corner()]).collect();
+        mesh(&points, &triangles)
+    }
+
+    #[test]
+    fn regression_triangles_piled_into_one_place_were_all_paired_in_quadratic_time() {
+        // The fuzzer's mesh_readers found a 688-triangle PLY with 53,735 pairs: 27 s under its
+        // instrumentation, every pair tested and kept. 3,000 triangles have millions.
+        let m = pile(3000, 11);
+        let limit = pair_limit(3000);
+        assert_eq!(
+            count_self_intersections(&m).unwrap(),
+            PairCount::MoreThan(limit)
+        );
+        let e = self_intersections(&m).unwrap_err();
+        assert_eq!(e.kind(), crate::ErrorKind::InvalidMesh);
+        assert!(
+            e.message().contains(&format!("more than {limit} pairs")),
+            "{e}"
+        );
+        assert_eq!(PairCount::MoreThan(limit).saturated(), limit + 1);
+    }
+
+    #[test]
+    fn a_search_finds_every_pair_up_to_its_limit_and_none_past_it() {
+        // Degenerate triangles (a repeated corner) count towards the limit too.
+        let mut m = pile(120, 5);
+        let degenerate = TriMesh::new(m.points().to_vec(), vec![[0, 0, 1], [2, 3, 3]]).unwrap();
+        m.append(&degenerate).unwrap();
+        let all = brute_force(&m);
+        assert!(
+            all.contains(&(120, 120)) && all.len() > 1000,
+            "{}",
+            all.len()
+        );
+        for threads in [1, 2] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let everything = |_| true;
+                assert_eq!(
+                    find(&m, everything, all.len()).unwrap().as_ref(),
+                    Some(&all)
+                );
+                assert_eq!(find(&m, everything, all.len() - 1).unwrap(), None);
+                assert_eq!(find(&m, everything, 1).unwrap(), None);
+            });
+        }
+        assert_eq!(
+            count_self_intersections(&pile(40, 5)).unwrap(),
+            PairCount::Exactly(brute_force(&pile(40, 5)).len())
+        );
     }
 
     #[test]

@@ -35,6 +35,7 @@
 //! log2(largest / smallest extent), and the table size stays proportional to the box count.
 
 use std::ops::Range;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -98,21 +99,32 @@ const SMALL_BOX_CELLS: i64 = 27;
 const ENTRIES_PER_BOX: i64 = 8;
 
 /// Every pair (i, j) with i < j of positions in `boxes` whose boxes overlap and for which
-/// `accept(i, j)` holds, sorted. `accept` is called exactly once for each overlapping pair,
+/// `accept(i, j)` holds, sorted; or `None` when there are more than `limit` such pairs. `accept`
+/// is called at most once for each overlapping pair (exactly once when the result is `Some`),
 /// from several threads.
+///
+/// The search stops soon after the pair beyond the limit is accepted, and never holds more
+/// than `limit` pairs: boxes piled into one place have a pair for almost every two of them,
+/// quadratically many. Whether the result is `None` depends only on the boxes and `accept`,
+/// not on the threads: a search is cut short only once more than `limit` pairs are accepted.
 ///
 /// Boxes are visited in Morton order: stored in `spatial_order`, they (and whatever data
 /// `accept` reads by position) are accessed almost sequentially.
-pub fn overlapping_pairs<F>(boxes: &[Aabb], accept: F) -> Vec<(u32, u32)>
+pub fn overlapping_pairs<F>(boxes: &[Aabb], limit: usize, accept: F) -> Option<Vec<(u32, u32)>>
 where
     F: Fn(u32, u32) -> bool + Sync,
 {
     let Some(all) = Summary::of(boxes.par_iter()) else {
-        return Vec::new();
+        return Some(Vec::new());
+    };
+    let accepted = Accepted {
+        accept,
+        count: AtomicUsize::new(0),
+        limit,
     };
     let grid = |cell_size: f64| Grid::over(&all, boxes.len(), cell_size);
     let level = |cell_size: f64, primary: &[u32], settled: &[u32], highest: DVec3| {
-        Level::new(boxes, grid(cell_size), primary, highest).pairs(settled, &accept)
+        Level::new(boxes, grid(cell_size), primary, highest).pairs(settled, &accepted)
     };
     // Positions of the boxes still to place, and of those placed at a finer level.
     let mut pending: Vec<u32> = (0..boxes.len() as u32).collect();
@@ -140,8 +152,33 @@ where
         pending = deferred;
         summary = Summary::of(pending.par_iter().map(|&i| &boxes[i as usize]));
     }
+    if accepted.exceeded() {
+        return None;
+    }
     pairs.par_sort_unstable();
-    pairs
+    Some(pairs)
+}
+
+/// The caller's test of a pair, and the count of the pairs it accepted, shared by the threads
+/// of one search, against the search's limit.
+struct Accepted<F> {
+    accept: F,
+    count: AtomicUsize,
+    limit: usize,
+}
+
+impl<F: Fn(u32, u32) -> bool> Accepted<F> {
+    /// Whether the caller accepts the pair and it is within the limit, to be kept.
+    #[inline]
+    fn keep(&self, a: u32, b: u32) -> bool {
+        (self.accept)(a, b) && self.count.fetch_add(1, Ordering::Relaxed) < self.limit
+    }
+
+    /// Whether more pairs than the limit were accepted: the search can stop.
+    #[inline]
+    fn exceeded(&self) -> bool {
+        self.count.load(Ordering::Relaxed) > self.limit
+    }
 }
 
 /// The positions of `boxes` ordered along the Morton (Z-order) curve through their lower
@@ -588,8 +625,10 @@ impl<'a> Level<'a> {
         bounds
     }
 
-    /// Accepted overlapping pairs among the primary boxes, and between them and `settled`.
-    fn pairs<F>(&self, settled: &[u32], accept: &F) -> Vec<(u32, u32)>
+    /// Accepted overlapping pairs among the primary boxes, and between them and `settled`, as
+    /// many as the limit lets `accepted` keep. The check for the limit comes once per box and
+    /// cell, not per pair: a cell of boxes piled into one place is the case it is there for.
+    fn pairs<F>(&self, settled: &[u32], accepted: &Accepted<F>) -> Vec<(u32, u32)>
     where
         F: Fn(u32, u32) -> bool + Sync,
     {
@@ -599,10 +638,13 @@ impl<'a> Level<'a> {
             let same_cell = |e: &Entry, f: &Entry| packing.key(*e) == packing.key(*f);
             for cell in self.entries[bounds[0]..bounds[1]].chunk_by(same_cell) {
                 for (x, &e) in cell.iter().enumerate() {
+                    if accepted.exceeded() {
+                        return out;
+                    }
                     let item = packing.item(e);
                     let a = &self.boxes[item as usize];
                     for f in &cell[x + 1..] {
-                        self.test(item, a, packing.first(e), f, accept, &mut out);
+                        self.test(item, a, packing.first(e), f, accepted, &mut out);
                     }
                 }
             }
@@ -612,12 +654,15 @@ impl<'a> Level<'a> {
             .par_iter()
             .with_min_len(256)
             .fold(Vec::new, |mut out, &item| {
-                self.grid
-                    .for_each_cell(&self.boxes[item as usize], |key, first| {
-                        for e in self.cell_entries(key) {
-                            self.test(item, &self.boxes[item as usize], first, e, accept, &mut out);
-                        }
-                    });
+                let b = &self.boxes[item as usize];
+                self.grid.for_each_cell(b, |key, first| {
+                    if accepted.exceeded() {
+                        return;
+                    }
+                    for e in self.cell_entries(key) {
+                        self.test(item, b, first, e, accepted, &mut out);
+                    }
+                });
                 out
             });
         within.chain(across).reduce(Vec::new, |mut a, mut b| {
@@ -638,7 +683,7 @@ impl<'a> Level<'a> {
         x_box: &Aabb,
         x_first: u8,
         y: &Entry,
-        accept: &F,
+        accepted: &Accepted<F>,
         out: &mut Vec<(u32, u32)>,
     ) where
         F: Fn(u32, u32) -> bool,
@@ -649,7 +694,7 @@ impl<'a> Level<'a> {
         let y = self.grid.packing.item(*y);
         if x_box.overlaps(&self.boxes[y as usize]) {
             let pair = (x.min(y), x.max(y));
-            if accept(pair.0, pair.1) {
+            if accepted.keep(pair.0, pair.1) {
                 out.push(pair);
             }
         }
@@ -698,10 +743,11 @@ mod tests {
 
     fn check_against_brute_force(boxes: &[Aabb]) {
         let calls = AtomicUsize::new(0);
-        let pairs = overlapping_pairs(boxes, |_, _| {
+        let pairs = overlapping_pairs(boxes, usize::MAX, |_, _| {
             calls.fetch_add(1, Ordering::Relaxed);
             true
-        });
+        })
+        .unwrap();
         let expected = brute_force(boxes);
         assert_eq!(pairs, expected);
         let calls = calls.load(Ordering::Relaxed);
@@ -729,7 +775,7 @@ mod tests {
             unit(DVec3::splat(1.0 + 2f64.powi(-20))),
             unit(DVec3::ONE),
         ];
-        let pairs = overlapping_pairs(&boxes, |_, _| true);
+        let pairs = overlapping_pairs(&boxes, usize::MAX, |_, _| true).unwrap();
         assert_eq!(pairs, brute_force(&boxes));
         assert!(pairs.contains(&(0, 4)) && pairs.contains(&(0, 2)));
         assert!(!pairs.contains(&(0, 3)));
@@ -752,7 +798,7 @@ mod tests {
             DVec3::splat(-1.0e6),
             DVec3::new(1.0e6, 1.0e6, 0.5),
         ));
-        let pairs = overlapping_pairs(&boxes, |_, _| true);
+        let pairs = overlapping_pairs(&boxes, usize::MAX, |_, _| true).unwrap();
         assert_eq!(pairs.len(), 10_000);
         assert!(pairs.iter().all(|&(_, b)| b == 10_000));
     }
@@ -794,7 +840,7 @@ mod tests {
     #[test]
     fn accept_filters_pairs_and_result_is_sorted() {
         let boxes = random_boxes(500, 0.5, 3);
-        let pairs = overlapping_pairs(&boxes, |a, b| (a + b) % 3 == 0);
+        let pairs = overlapping_pairs(&boxes, usize::MAX, |a, b| (a + b) % 3 == 0).unwrap();
         let expected: Vec<_> = brute_force(&boxes)
             .into_iter()
             .filter(|(a, b)| (a + b) % 3 == 0)
@@ -803,11 +849,59 @@ mod tests {
     }
 
     #[test]
+    fn a_search_gives_up_past_its_limit_whatever_the_threads() {
+        // Sizes from 0.003 to 3 in a region 10 wide: several levels, tasks and thousands of
+        // pairs.
+        let boxes: Vec<Aabb> = random_boxes(20_000, 3.0, 5)
+            .iter()
+            .map(|b| {
+                let lo = b.lo.as_dvec3() * 0.1;
+                Aabb::new(lo, lo + (b.hi - b.lo).as_dvec3())
+            })
+            .collect();
+        let accept = |a: u32, b: u32| (a ^ b) % 5 != 0;
+        let all = overlapping_pairs(&boxes, usize::MAX, accept).unwrap();
+        assert!(all.len() > 10_000, "{}", all.len());
+        for threads in [1, 2, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                assert_eq!(
+                    overlapping_pairs(&boxes, all.len(), accept).as_ref(),
+                    Some(&all)
+                );
+                assert_eq!(overlapping_pairs(&boxes, all.len() - 1, accept), None);
+                assert_eq!(overlapping_pairs(&boxes, 0, accept), None);
+            });
+        }
+    }
+
+    #[test]
+    fn boxes_piled_into_one_place_are_not_all_paired_once_the_limit_is_passed() {
+        // 4,000 boxes around one point: about 8 million overlapping pairs, all in one cell.
+        let boxes: Vec<Aabb> = (0..4000)
+            .map(|i| unit(DVec3::splat(f64::from(i % 7) * 0.01)))
+            .collect();
+        let calls = AtomicUsize::new(0);
+        let limit = 1000;
+        let pairs = overlapping_pairs(&boxes, limit, |_, _| {
+            calls.fetch_add(1, Ordering::Relaxed);
+            true
+        });
+        assert_eq!(pairs, None);
+        // The check comes once per box: each thread may finish the pairs of the box it is on.
+        let bound = limit + 1 + rayon::current_num_threads() * boxes.len();
+        assert!(calls.into_inner() <= bound);
+    }
+
+    #[test]
     fn empty_and_single_inputs() {
-        assert!(overlapping_pairs(&[], |_, _| true).is_empty());
+        assert_eq!(overlapping_pairs(&[], 0, |_, _| true), Some(Vec::new()));
         assert!(spatial_order(&[]).is_empty());
         let one = [Aabb::of_triangle([DVec3::ZERO, DVec3::X, DVec3::Y])];
-        assert!(overlapping_pairs(&one, |_, _| true).is_empty());
+        assert_eq!(overlapping_pairs(&one, 0, |_, _| true), Some(Vec::new()));
         assert_eq!(spatial_order(&one), vec![0]);
     }
 
@@ -815,7 +909,10 @@ mod tests {
     fn extreme_extents_and_coordinates_fall_back_to_coarse_cells() {
         let everything = Aabb::new(DVec3::splat(-f64::MAX), DVec3::splat(f64::MAX));
         let boxes = [everything, unit(DVec3::ZERO), everything];
-        assert_eq!(overlapping_pairs(&boxes, |_, _| true), brute_force(&boxes));
+        assert_eq!(
+            overlapping_pairs(&boxes, usize::MAX, |_, _| true),
+            Some(brute_force(&boxes))
+        );
         // Unit boxes 10^9 cells apart: more cells than the entries can name, so the grid gets
         // larger cells.
         let far: Vec<Aabb> = (0..50)

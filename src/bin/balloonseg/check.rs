@@ -3,7 +3,8 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use balloonseg::{io, mesh_checks, self_intersection::self_intersections, Result};
+use balloonseg::self_intersection::{count_self_intersections, pair_limit};
+use balloonseg::{io, mesh_checks, Result};
 use serde_json::json;
 
 #[derive(clap::Args)]
@@ -19,7 +20,7 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<ExitCode> {
     let mesh = io::read_mesh(&args.mesh)?;
     let report = mesh_checks::check(&mesh);
-    let pairs = self_intersections(&mesh)?.len();
+    let pairs = count_self_intersections(&mesh)?.saturated();
     let summary = json!({
         "file": crate::shown(&args.mesh),
         "vertices": report.vertices,
@@ -29,6 +30,7 @@ pub fn run(args: &Args) -> Result<ExitCode> {
         "oriented": report.consistently_oriented(),
         "outward": report.outward(),
         "self_intersecting_pairs": pairs,
+        "self_intersections_counted_up_to": pair_limit(report.triangles),
         "euler_characteristic": report.euler_characteristic,
         "genus": report.genus(),
         "components": report.components,

@@ -14,7 +14,7 @@ use balloonseg::balloon::{
 use balloonseg::io::{self, CellData, PointData, PointValues};
 use balloonseg::render::{self, RenderObject, RenderOptions};
 use balloonseg::{
-    mesh_checks, self_intersection::self_intersections, Error, Geometry, Result, TriMesh,
+    mesh_checks, self_intersection::count_self_intersections, Error, Geometry, Result, TriMesh,
 };
 use glam::DVec3;
 use serde_json::json;
@@ -359,7 +359,7 @@ fn stats_json(
         "closed": report.closed(),
         "manifold": report.manifold(),
         "outward": report.outward(),
-        "self_intersecting_pairs": self_intersections(mesh)?.len(),
+        "self_intersecting_pairs": count_self_intersections(mesh)?.saturated(),
         "iterations": stats.iterations,
         "reparametrizations": stats.reparametrizations,
         "out_of_steps": stats.out_of_steps,
