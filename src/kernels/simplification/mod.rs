@@ -421,12 +421,7 @@ impl Simplifier {
         let Ok(admitted) = self.admissible(&change, &after, &displaced) else {
             return Ok(false);
         };
-        let component = self.input.component(t);
-        self.volumes[component as usize] = admitted.volume;
-        self.pieces.commit(&[], &replaced, admitted.pieces);
-        for (&x, &(_, vertices)) in replaced.iter().zip(&after) {
-            self.set_triangle(x, vertices);
-        }
+        self.apply(&change, &after, admitted);
         self.around[a as usize].retain(|&x| x != u);
         self.around[b as usize].retain(|&x| x != t);
         for (v, x) in [(c, u), (d, t)] {
@@ -517,13 +512,8 @@ impl Simplifier {
         let Ok(admitted) = self.admissible(&change, &after, &displaced) else {
             return Ok(false);
         };
-        let component = self.input.component(star[0]);
-        self.volumes[component as usize] = admitted.volume;
-        self.pieces.commit(&[], &star, admitted.pieces);
         self.points[v as usize] = position;
-        for &t in &star {
-            self.set_triangle(t, self.triangles[t as usize]);
-        }
+        self.apply(&change, &after, admitted);
         self.stamps[v as usize] = self.stamps[v as usize].wrapping_add(1);
         let around = self.neighbours(v);
         let edges = around.iter().map(|&w| (v.min(w), v.max(w))).collect();
@@ -747,7 +737,7 @@ impl Simplifier {
         };
         Ok(match self.admissible(&change, &after, displaced) {
             Ok(admitted) => {
-                self.commit(star, position, admitted)?;
+                self.commit(star, &change, &after, position, admitted)?;
                 Ok(())
             }
             Err(miss) => Err(miss),
@@ -875,10 +865,17 @@ impl Simplifier {
         found
     }
 
-    fn commit(&mut self, star: &Star, position: DVec3, admitted: Admitted) -> Result<()> {
+    /// Collapses `star` to `position`, as `change` and `after` describe it and `admissible`
+    /// admitted it.
+    fn commit(
+        &mut self,
+        star: &Star,
+        change: &Change,
+        after: &[([DVec3; 3], [u32; 3])],
+        position: DVec3,
+        admitted: Admitted,
+    ) -> Result<()> {
         let (keep, remove) = (star.keep, star.remove);
-        let component = self.input.component(star.moved[0]);
-        self.volumes[component as usize] = admitted.volume;
         for &t in &star.deleted {
             self.alive[t as usize] = false;
             self.grid.remove(t, &self.bounds[t as usize]);
@@ -894,12 +891,7 @@ impl Simplifier {
         self.quadrics[keep as usize] =
             self.quadrics[keep as usize] + self.quadrics[remove as usize];
         self.merged_into[remove as usize] = keep;
-        self.pieces
-            .commit(&star.deleted, &star.moved, admitted.pieces);
-        for &t in &star.moved {
-            let vertices = self.triangles[t as usize].map(|v| if v == remove { keep } else { v });
-            self.set_triangle(t, vertices);
-        }
+        self.apply(change, after, admitted);
         self.stamps[keep as usize] = self.stamps[keep as usize].wrapping_add(1);
         let around_keep = self.neighbours(keep);
         let edges = around_keep
@@ -907,6 +899,19 @@ impl Simplifier {
             .map(|&w| (keep.min(w), keep.max(w)))
             .collect();
         self.queue_again(edges, &around_keep)
+    }
+
+    /// The end every admitted change shares, once its points are where `after` has them: its
+    /// component's volume, the input pieces its triangles answer for, and the replaced
+    /// triangles' new vertices.
+    fn apply(&mut self, change: &Change, after: &[([DVec3; 3], [u32; 3])], admitted: Admitted) {
+        let component = self.input.component(change.replaced[0]);
+        self.volumes[component as usize] = admitted.volume;
+        self.pieces
+            .commit(change.removed, change.replaced, admitted.pieces);
+        for (&t, &(_, vertices)) in change.replaced.iter().zip(after) {
+            self.set_triangle(t, vertices);
+        }
     }
 
     /// Gives live triangle `t` new `vertices` (which may then move again), and the grid its
