@@ -21,6 +21,7 @@ pub mod ndarray_volume;
 pub mod phantom;
 #[cfg(feature = "io")]
 pub mod render;
+mod thread_pool;
 pub mod volume;
 
 // The kernels live together in src/kernels/ and are reached from the root, as before.

@@ -37,6 +37,7 @@ use crate::balloon::surface::{Surface, VertexState};
 use crate::error::{Error, Result};
 use crate::geometry::Geometry;
 use crate::mesh::TriMesh;
+use crate::thread_pool::ThreadPool;
 use crate::volume::Volume;
 
 /// The largest ratio of the longest voxel spacing to the shortest. The balloon's grids (its
@@ -207,7 +208,7 @@ pub struct Segmenter<'v, 'p> {
     pub(super) stats: SegmentationStats,
     /// The final surfaces of other objects that this one's final surface must not meet.
     pub(super) apart_from: Vec<Arc<Obstacle>>,
-    pub(super) pool: rayon::ThreadPool,
+    pub(super) pool: ThreadPool,
     pub(super) progress: Option<ProgressCallback<'p>>,
 }
 
@@ -216,10 +217,7 @@ impl<'v, 'p> Segmenter<'v, 'p> {
     /// tolerance not given in `params` are estimated around this seed.
     pub fn new(volume: Volume<'v>, params: BalloonParams, seed: DVec3) -> Result<Self> {
         params.validate()?;
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(params.threads)
-            .build()
-            .map_err(|e| Error::invalid_argument(format!("cannot start the threads: {e}")))?;
+        let pool = ThreadPool::new(params.threads)?;
         let geometry = *volume.geometry();
         let edge_length = params.edge_length.unwrap_or(geometry.mean_spacing());
         check_scales(&geometry, edge_length)?;

@@ -14,12 +14,12 @@ use super::status::BalloonStatus;
 use super::volume::{volume_from_c, BalloonVolume};
 use crate::balloon::params::check_threads;
 use crate::balloon::Phase;
-use crate::error::Error;
 use crate::marching_cubes::marching_cubes;
 use crate::mesh::TriMesh;
 use crate::mesh_checks;
 use crate::self_intersection::{count_self_intersections, self_intersections};
 use crate::simplification::{simplify_with_progress, Simplified};
+use crate::thread_pool::ThreadPool;
 
 /// In the vertex map of a simplified mesh (balloon_trimesh_vertex_map): an input point that no
 /// triangle uses.
@@ -81,10 +81,7 @@ pub unsafe extern "C" fn balloon_marching_cubes(
         // SAFETY: by the caller's promise.
         let volume = unsafe { volume_from_c(volume)? };
         check_threads(threads as usize)?;
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads as usize)
-            .build()
-            .map_err(|e| Error::invalid_argument(format!("cannot start {threads} threads: {e}")))?;
+        let pool = ThreadPool::new(threads as usize)?;
         let mesh = pool.install(|| marching_cubes(&volume, level))?;
         let owned = Box::new(BalloonTriMesh {
             mesh,
