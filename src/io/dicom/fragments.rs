@@ -33,7 +33,9 @@ impl Frame<'_> {
     }
 
     /// An RLE lossless slice: one fragment, whose header names one segment per byte of a
-    /// sample, each starting after the header and after the one before, inside the fragment.
+    /// sample, each starting after the header and after the one before, inside the fragment,
+    /// and each decoding to at least Rows × Columns bytes: dicom-rs 0.9 copies that many from
+    /// every segment's output and panics on a shorter one.
     pub fn check_rle(&self, fragments: &[Vec<u8>]) -> Result<()> {
         let [fragment] = fragments else {
             return Err(self.corrupt(format!(
@@ -71,6 +73,20 @@ impl Frame<'_> {
                 fragment.len()
             )));
         }
+        let pixels = self.rows.saturating_mul(self.columns);
+        let ends = offsets[1..]
+            .iter()
+            .map(|&o| o as usize)
+            .chain([fragment.len()]);
+        for (k, (start, end)) in offsets.iter().map(|&o| o as usize).zip(ends).enumerate() {
+            let decoded = packbits_length(&fragment[start..end]);
+            if decoded < pixels {
+                return Err(self.corrupt(format!(
+                    "its RLE segment {k} decodes to {decoded} bytes where Rows × Columns take \
+                     {pixels}"
+                )));
+            }
+        }
         Ok(())
     }
 
@@ -90,6 +106,31 @@ impl Frame<'_> {
         }
         Ok(())
     }
+}
+
+/// The bytes a PackBits stream (DICOM PS3.5 G.3.1) decodes to, as dicom-rs 0.9 decodes it: a
+/// header byte n of 0..=127 copies the n + 1 bytes after it (as many as are left), one of
+/// -127..=-1 repeats the byte after it 1 - n times, and -128 does nothing. A repeat without
+/// its byte counts nothing (dicom-rs reports an error there).
+fn packbits_length(stream: &[u8]) -> usize {
+    let (mut at, mut decoded) = (0, 0usize);
+    while let Some(&header) = stream.get(at) {
+        let n = header as i8;
+        at += 1;
+        match n {
+            0..=127 => {
+                let copied = (n as usize + 1).min(stream.len() - at);
+                decoded += copied;
+                at += copied;
+            }
+            -127..=-1 if at < stream.len() => {
+                decoded += (1 - n as isize) as usize;
+                at += 1;
+            }
+            _ => {}
+        }
+    }
+    decoded
 }
 
 #[derive(Debug, PartialEq)]
@@ -150,9 +191,17 @@ mod tests {
         }
     }
 
+    /// An RLE header of `words` and, to `length` bytes, PackBits runs of 8 bytes each (the
+    /// test frame's Rows × Columns) two bytes apart.
     fn rle_fragment(words: &[u32], length: usize) -> Vec<u8> {
         let mut bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
-        bytes.resize(length, 0);
+        bytes.resize(RLE_HEADER_BYTES, 0);
+        bytes.extend(
+            [(-7i8) as u8, 1]
+                .iter()
+                .cycle()
+                .take(length - RLE_HEADER_BYTES),
+        );
         bytes
     }
 
@@ -183,6 +232,38 @@ mod tests {
                 "{words:?}: {refused}"
             );
         }
+    }
+
+    #[test]
+    fn packbits_lengths_count_literal_and_repeated_runs_as_dicom_rs_decodes_them() {
+        // dicom-rs's own example: 24 bytes.
+        let example = [
+            0xFE, 0xAA, 0x02, 0x80, 0x00, 0x2A, 0xFD, 0xAA, 0x03, 0x80, 0x00, 0x2A, 0x22, 0xF7,
+            0xAA,
+        ];
+        assert_eq!(packbits_length(&example), 24);
+        // A literal run cut short copies what is left; a repeat without its byte, nothing;
+        // -128 is no run.
+        assert_eq!(packbits_length(&[0x05, 1, 2]), 2);
+        assert_eq!(packbits_length(&[0x00, 9, 0xF9]), 1);
+        assert_eq!(packbits_length(&[0x80, 0x80]), 0);
+        assert_eq!(packbits_length(&[]), 0);
+    }
+
+    #[test]
+    fn regression_dicom_rs_panicked_on_an_rle_segment_shorter_than_the_frame() {
+        // The fuzzer's dicom target hit dicom-rs 0.9's `rle_lossless.rs:114` many times: it
+        // indexes each segment's output up to Rows × Columns. The reader caught the panic,
+        // but the message still reached standard error.
+        let mut fragment = rle_fragment(&[2, 64, 70], 80);
+        fragment[70..80].copy_from_slice(&[0x06, 1, 2, 3, 4, 5, 6, 7, 0xF9, 0xFF]);
+        assert!(frame(16).check_rle(&[fragment.clone()]).is_ok());
+        fragment[78] = 0x80;
+        let refused = message(frame(16).check_rle(&[fragment]));
+        assert!(
+            refused.contains("segment 1 decodes to 7 bytes where Rows × Columns take 8"),
+            "{refused}"
+        );
     }
 
     #[test]
