@@ -338,6 +338,7 @@ fn edge_misses(edge: [DVec3; 2], plane: &Plane) -> bool {
 mod tests {
     use super::*;
     use crate::mesh::test_shapes::icosphere;
+    use crate::phantom::random::SplitMix64;
     use crate::predicates::collinear;
     use proptest::prelude::*;
 
@@ -550,17 +551,12 @@ mod tests {
 
     /// `n` triangles on random corners in a unit cube: nearly every two of them intersect.
     fn pile(n: usize, seed: u64) -> TriMesh {
-        let mut state = seed;
-        let mut uniform = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut random = SplitMix64::new(seed);
         let points: Vec<[f64; 3]> = (0..n / 2)
-            .map(|_| [uniform(), uniform(), uniform()])
+            .map(|_| [random.unit(), random.unit(), random.unit()])
             .collect();
-        let mut corner = || (uniform() * points.len() as f64) as u32;
+        let last = points.len() as u64 - 1;
+        let mut corner = || random.integer(0, last) as u32;
         let triangles: Vec<[u32; 3]> = (0..n).map(|_| [corner(), corner(), corner()]).collect();
         mesh(&points, &triangles)
     }
