@@ -42,7 +42,8 @@ def _pointers(p: np.ndarray, t: np.ndarray):
 
 def check(points, triangles) -> dict:
     """Topology and geometry of a triangle mesh: ``vertices``, ``triangles``, ``closed``,
-    ``manifold``, ``oriented``, ``outward``, ``self_intersecting_pairs``,
+    ``manifold``, ``oriented``, ``outward``, ``self_intersecting_pairs`` (counted up to 16 per
+    triangle plus 1,024, where the search stops; more reads as that limit plus one),
     ``euler_characteristic``, ``genus`` (None unless closed and manifold), ``components``,
     ``area_mm2``, ``volume_mm3`` (signed: positive when the triangles face outward)."""
     p, t = mesh_arrays(points, triangles)
